@@ -1,0 +1,670 @@
+//! The counting context: same results as the wrapped backend, plus a record
+//! of everything issued.
+
+use crate::record::{Counters, LineEncoder, TaskRecord, NO_TASK};
+use crate::simd::{BackendKind, Simd};
+use crate::Mask16;
+use core::cell::RefCell;
+use core::sync::atomic::AtomicI32;
+
+/// Collects [`TaskRecord`]s for one thread. Not `Sync`: use one per worker
+/// thread (or per task) and merge the records afterwards.
+#[derive(Debug)]
+pub struct Recorder {
+    st: RefCell<State>,
+}
+
+#[derive(Debug)]
+struct State {
+    kind: u32,
+    c: Counters,
+    enc: LineEncoder,
+    record_lines: bool,
+    done: Vec<TaskRecord>,
+}
+
+impl Default for Recorder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Recorder {
+    /// A recorder that records counters and the cache-line stream.
+    pub fn new() -> Self {
+        Self::with_lines(true)
+    }
+    /// `record_lines = false` keeps only the counters (faster, smaller).
+    pub fn with_lines(record_lines: bool) -> Self {
+        Recorder {
+            st: RefCell::new(State {
+                kind: NO_TASK,
+                c: Counters::default(),
+                enc: LineEncoder::default(),
+                record_lines,
+                done: Vec::new(),
+            }),
+        }
+    }
+
+    /// Start a task (files the current one first if it recorded anything).
+    pub fn begin_task(&self, kind: u32) {
+        let mut st = self.st.borrow_mut();
+        if st.c != Counters::default() || !st.enc.is_empty() {
+            let r = take(&mut st);
+            st.done.push(r);
+        }
+        st.kind = kind;
+    }
+
+    /// End the current task and return its record (not filed).
+    pub fn finish_task(&self) -> TaskRecord {
+        take(&mut self.st.borrow_mut())
+    }
+
+    /// End the current task and file its record.
+    pub fn end_task(&self) {
+        let mut st = self.st.borrow_mut();
+        let r = take(&mut st);
+        st.done.push(r);
+    }
+
+    /// Counters of the task in progress.
+    pub fn current(&self) -> Counters {
+        self.st.borrow().c
+    }
+
+    /// Take the filed records, plus the one in progress if it recorded
+    /// anything (as a record of kind [`NO_TASK`] or its begun kind).
+    pub fn take_tasks(&self) -> Vec<TaskRecord> {
+        let mut st = self.st.borrow_mut();
+        if st.c != Counters::default() || !st.enc.is_empty() {
+            let r = take(&mut st);
+            st.done.push(r);
+        }
+        core::mem::take(&mut st.done)
+    }
+
+    #[inline(always)]
+    fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
+        f(&mut self.st.borrow_mut())
+    }
+}
+
+fn take(st: &mut State) -> TaskRecord {
+    let r = TaskRecord {
+        kind: st.kind,
+        counters: core::mem::take(&mut st.c),
+        lines: core::mem::take(&mut st.enc).finish(),
+    };
+    st.kind = NO_TASK;
+    r
+}
+
+/// Instruction class of one issued operation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Class {
+    Valu,
+    Fma,
+    Trans,
+    Load,
+    Store,
+    Gather,
+    Scatter,
+    CompressExpand,
+    Atomic,
+}
+
+#[inline(always)]
+fn line_of(addr: usize) -> u64 {
+    (addr as u64) >> 6
+}
+
+/// Distinct values among up to 16 line numbers.
+fn distinct(lines: &mut [u64]) -> u64 {
+    lines.sort_unstable();
+    let mut n = 0;
+    for i in 0..lines.len() {
+        if i == 0 || lines[i] != lines[i - 1] {
+            n += 1;
+        }
+    }
+    n
+}
+
+/// Counting execution context wrapping backend `B`.
+///
+/// Every method forwards to `B` (so results are bit-identical to running on
+/// `B`) and records the operation in the [`Recorder`]: its class, lanes,
+/// and for memory operations the 64-byte lines touched. Derived methods
+/// (`acos_f`, `clamp_f`, ...) are not forwarded but run as their
+/// constituent instructions, which is what they are on the modelled
+/// machine.
+#[derive(Clone, Copy, Debug)]
+pub struct Counting<'r, B: Simd> {
+    inner: B,
+    rec: &'r Recorder,
+}
+
+impl<'r, B: Simd> Counting<'r, B> {
+    /// Wrap `inner`, recording into `rec`.
+    pub fn new(inner: B, rec: &'r Recorder) -> Self {
+        Counting { inner, rec }
+    }
+    /// The wrapped backend.
+    pub fn inner(self) -> B {
+        self.inner
+    }
+    /// The recorder.
+    pub fn recorder(self) -> &'r Recorder {
+        self.rec
+    }
+    /// End the current task and return its record directly.
+    pub fn finish_task(self) -> TaskRecord {
+        self.rec.finish_task()
+    }
+
+    #[inline(always)]
+    fn op(self, class: Class, lanes: u32, masked: bool) {
+        self.rec.with(|st| {
+            let c = &mut st.c;
+            match class {
+                Class::Valu => c.valu += 1,
+                Class::Fma => c.fma += 1,
+                Class::Trans => c.transcendental += 1,
+                Class::Load => c.load += 1,
+                Class::Store => c.store += 1,
+                Class::Gather => c.gather += 1,
+                Class::Scatter => c.scatter += 1,
+                Class::CompressExpand => c.compress_expand += 1,
+                Class::Atomic => c.atomic += 1,
+            }
+            c.vector_ops += 1;
+            c.active_lanes += lanes as u64;
+            c.masked_ops += masked as u64;
+        })
+    }
+    #[inline(always)]
+    fn mask_op(self) {
+        self.rec.with(|st| st.c.mask += 1)
+    }
+    #[inline(always)]
+    fn reduce(self) {
+        self.rec.with(|st| {
+            st.c.valu += 4;
+            st.c.vector_ops += 4;
+            st.c.active_lanes += 64;
+        })
+    }
+
+    /// Contiguous access of elements `[first, last]` (inclusive, in units
+    /// of 4 bytes) starting at `base`.
+    fn contiguous(self, base: usize, first: usize, last: usize, write: bool) {
+        let l0 = line_of(base + 4 * first);
+        let l1 = line_of(base + 4 * last + 3);
+        self.rec.with(|st| {
+            let n = l1 - l0 + 1;
+            if write {
+                st.c.store_lines += n;
+            } else {
+                st.c.load_lines += n;
+            }
+            if st.record_lines {
+                for l in l0..=l1 {
+                    st.enc.push(l, write);
+                }
+            }
+        })
+    }
+    fn masked_contiguous(self, base: usize, m: Mask16, write: bool) {
+        if let (Some(f), Some(l)) = (m.first(), m.last()) {
+            self.contiguous(base, f as usize, l as usize, write);
+        }
+    }
+    /// Indexed access: lines of the active lanes in lane order; returns the
+    /// number of distinct lines.
+    fn indexed(self, base: usize, m: Mask16, idx: &[i32; 16], write: bool) -> u64 {
+        let mut lines = [0u64; 16];
+        let mut n = 0;
+        for lane in m.iter() {
+            lines[n] = line_of(base.wrapping_add(4 * idx[lane] as usize));
+            n += 1;
+        }
+        self.rec.with(|st| {
+            if st.record_lines {
+                for &l in &lines[..n] {
+                    st.enc.push(l, write);
+                }
+            }
+        });
+        distinct(&mut lines[..n])
+    }
+}
+
+macro_rules! fwd {
+    ($class:ident; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self $(, $arg: $ty)*) -> $ret {
+            self.op(Class::$class, 16, false);
+            self.inner.$name($($arg),*)
+        }
+    )* };
+}
+macro_rules! fwd_masked {
+    ($class:ident; $( fn $name:ident(self, $src:ident : $sty:ty, $m:ident : Mask16 $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self, $src: $sty, $m: Mask16 $(, $arg: $ty)*) -> $ret {
+            self.op(Class::$class, $m.count(), true);
+            self.inner.$name($src, $m $(, $arg)*)
+        }
+    )* };
+}
+macro_rules! fwd_mask {
+    ($( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self $(, $arg: $ty)*) -> $ret {
+            self.mask_op();
+            self.inner.$name($($arg),*)
+        }
+    )* };
+}
+macro_rules! fwd_free {
+    ($( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self $(, $arg: $ty)*) -> $ret {
+            self.inner.$name($($arg),*)
+        }
+    )* };
+}
+macro_rules! fwd_reduce {
+    ($( fn $name:ident(self, v: $ty:ty) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self, v: $ty) -> $ret {
+            self.reduce();
+            self.inner.$name(v)
+        }
+    )* };
+}
+
+impl<B: Simd> Simd for Counting<'_, B> {
+    type F32 = B::F32;
+    type I32 = B::I32;
+
+    #[inline(always)]
+    fn kind(self) -> BackendKind {
+        self.inner.kind()
+    }
+
+    fwd_free! {
+        fn splat_f(self, x: f32) -> Self::F32;
+        fn splat_i(self, x: i32) -> Self::I32;
+        fn index_i(self) -> Self::I32;
+        fn cast_f_i(self, a: Self::F32) -> Self::I32;
+        fn cast_i_f(self, a: Self::I32) -> Self::F32;
+    }
+
+    fwd! { Load;
+        fn from_array_f(self, a: [f32; 16]) -> Self::F32;
+        fn from_array_i(self, a: [i32; 16]) -> Self::I32;
+    }
+    fwd! { Store;
+        fn to_array_f(self, v: Self::F32) -> [f32; 16];
+        fn to_array_i(self, v: Self::I32) -> [i32; 16];
+    }
+
+    fwd! { Valu;
+        fn extract_f(self, v: Self::F32, lane: usize) -> f32;
+        fn extract_i(self, v: Self::I32, lane: usize) -> i32;
+        fn add_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn sub_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mul_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn min_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn max_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn abs_f(self, a: Self::F32) -> Self::F32;
+        fn neg_f(self, a: Self::F32) -> Self::F32;
+        fn floor_f(self, a: Self::F32) -> Self::F32;
+        fn ceil_f(self, a: Self::F32) -> Self::F32;
+        fn trunc_f(self, a: Self::F32) -> Self::F32;
+        fn round_f(self, a: Self::F32) -> Self::F32;
+        fn select_f(self, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn cmp_eq_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_ne_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_lt_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_le_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_gt_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_ge_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_unord_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn permute_f(self, v: Self::F32, idx: Self::I32) -> Self::F32;
+        fn add_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn sub_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn mul_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn and_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn or_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn xor_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn andn_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn shl_i(self, a: Self::I32, n: u32) -> Self::I32;
+        fn shr_u(self, a: Self::I32, n: u32) -> Self::I32;
+        fn shr_i(self, a: Self::I32, n: u32) -> Self::I32;
+        fn shlv_i(self, a: Self::I32, n: Self::I32) -> Self::I32;
+        fn shrv_u(self, a: Self::I32, n: Self::I32) -> Self::I32;
+        fn shrv_i(self, a: Self::I32, n: Self::I32) -> Self::I32;
+        fn min_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn max_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn min_u(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn max_u(self, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn abs_i(self, a: Self::I32) -> Self::I32;
+        fn select_i(self, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn cmp_eq_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ne_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_lt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_le_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_gt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ge_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_lt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_le_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_gt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ge_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn test_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn permute_i(self, v: Self::I32, idx: Self::I32) -> Self::I32;
+        fn conflict_i(self, v: Self::I32) -> Self::I32;
+        fn cvt_i_f(self, a: Self::I32) -> Self::F32;
+        fn cvt_u_f(self, a: Self::I32) -> Self::F32;
+        fn cvtt_f_i(self, a: Self::F32) -> Self::I32;
+        fn cvtr_f_i(self, a: Self::F32) -> Self::I32;
+    }
+
+    fwd! { Fma;
+        fn fmadd(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
+        fn fmsub(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
+        fn fnmadd(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
+    }
+
+    fwd! { Trans;
+        fn div_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn sqrt_f(self, a: Self::F32) -> Self::F32;
+        fn rcp_f(self, a: Self::F32) -> Self::F32;
+        fn rsqrt_f(self, a: Self::F32) -> Self::F32;
+        fn rcp_fast_f(self, a: Self::F32) -> Self::F32;
+        fn rsqrt_fast_f(self, a: Self::F32) -> Self::F32;
+    }
+
+    fwd_masked! { Valu;
+        fn mask_add_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_sub_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_mul_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_min_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_max_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_add_i(self, src: Self::I32, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
+        fn mask_sub_i(self, src: Self::I32, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
+    }
+    fwd_masked! { Fma;
+        fn mask_fmadd(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
+    }
+    fwd_masked! { Trans;
+        fn mask_div_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn mask_sqrt_f(self, src: Self::F32, m: Mask16, a: Self::F32) -> Self::F32;
+    }
+
+    fwd_reduce! {
+        fn reduce_add_f(self, v: Self::F32) -> f32;
+        fn reduce_min_f(self, v: Self::F32) -> f32;
+        fn reduce_max_f(self, v: Self::F32) -> f32;
+        fn reduce_add_i(self, v: Self::I32) -> i32;
+        fn reduce_min_i(self, v: Self::I32) -> i32;
+        fn reduce_max_i(self, v: Self::I32) -> i32;
+        fn reduce_min_u(self, v: Self::I32) -> u32;
+        fn reduce_max_u(self, v: Self::I32) -> u32;
+        fn reduce_or_i(self, v: Self::I32) -> i32;
+        fn reduce_and_i(self, v: Self::I32) -> i32;
+    }
+
+    #[inline(always)]
+    fn compress_f(self, m: Mask16, v: Self::F32) -> Self::F32 {
+        self.op(Class::CompressExpand, m.count(), true);
+        self.inner.compress_f(m, v)
+    }
+    #[inline(always)]
+    fn expand_f(self, m: Mask16, v: Self::F32) -> Self::F32 {
+        self.op(Class::CompressExpand, m.count(), true);
+        self.inner.expand_f(m, v)
+    }
+    #[inline(always)]
+    fn compress_i(self, m: Mask16, v: Self::I32) -> Self::I32 {
+        self.op(Class::CompressExpand, m.count(), true);
+        self.inner.compress_i(m, v)
+    }
+    #[inline(always)]
+    fn expand_i(self, m: Mask16, v: Self::I32) -> Self::I32 {
+        self.op(Class::CompressExpand, m.count(), true);
+        self.inner.expand_i(m, v)
+    }
+
+    fwd_mask! {
+        fn mask_and(self, a: Mask16, b: Mask16) -> Mask16;
+        fn mask_or(self, a: Mask16, b: Mask16) -> Mask16;
+        fn mask_xor(self, a: Mask16, b: Mask16) -> Mask16;
+        fn mask_andn(self, a: Mask16, b: Mask16) -> Mask16;
+        fn mask_not(self, a: Mask16) -> Mask16;
+        fn mask_popcnt(self, a: Mask16) -> u32;
+        fn mask_any(self, a: Mask16) -> bool;
+        fn mask_all(self, a: Mask16) -> bool;
+        fn mask_first(self, a: Mask16) -> Option<u32>;
+        fn mask_first_n(self, n: usize) -> Mask16;
+    }
+
+    // ---------------- memory ----------------
+
+    #[inline(always)]
+    fn load_f(self, mem: &[f32]) -> Self::F32 {
+        let r = self.inner.load_f(mem);
+        self.op(Class::Load, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, false);
+        r
+    }
+    #[inline(always)]
+    fn load_i(self, mem: &[i32]) -> Self::I32 {
+        let r = self.inner.load_i(mem);
+        self.op(Class::Load, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, false);
+        r
+    }
+    #[inline(always)]
+    fn load_aligned_f(self, mem: &[f32]) -> Self::F32 {
+        let r = self.inner.load_aligned_f(mem);
+        self.op(Class::Load, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, false);
+        r
+    }
+    #[inline(always)]
+    fn load_aligned_i(self, mem: &[i32]) -> Self::I32 {
+        let r = self.inner.load_aligned_i(mem);
+        self.op(Class::Load, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, false);
+        r
+    }
+    #[inline(always)]
+    fn store_f(self, mem: &mut [f32], v: Self::F32) {
+        self.inner.store_f(mem, v);
+        self.op(Class::Store, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, true);
+    }
+    #[inline(always)]
+    fn store_i(self, mem: &mut [i32], v: Self::I32) {
+        self.inner.store_i(mem, v);
+        self.op(Class::Store, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, true);
+    }
+    #[inline(always)]
+    fn store_aligned_f(self, mem: &mut [f32], v: Self::F32) {
+        self.inner.store_aligned_f(mem, v);
+        self.op(Class::Store, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, true);
+    }
+    #[inline(always)]
+    fn store_aligned_i(self, mem: &mut [i32], v: Self::I32) {
+        self.inner.store_aligned_i(mem, v);
+        self.op(Class::Store, 16, false);
+        self.contiguous(mem.as_ptr() as usize, 0, 15, true);
+    }
+    #[inline(always)]
+    fn mask_load_f(self, src: Self::F32, m: Mask16, mem: &[f32]) -> Self::F32 {
+        let r = self.inner.mask_load_f(src, m, mem);
+        self.op(Class::Load, m.count(), true);
+        self.masked_contiguous(mem.as_ptr() as usize, m, false);
+        r
+    }
+    #[inline(always)]
+    fn mask_load_i(self, src: Self::I32, m: Mask16, mem: &[i32]) -> Self::I32 {
+        let r = self.inner.mask_load_i(src, m, mem);
+        self.op(Class::Load, m.count(), true);
+        self.masked_contiguous(mem.as_ptr() as usize, m, false);
+        r
+    }
+    #[inline(always)]
+    fn mask_store_f(self, mem: &mut [f32], m: Mask16, v: Self::F32) {
+        self.inner.mask_store_f(mem, m, v);
+        self.op(Class::Store, m.count(), true);
+        self.masked_contiguous(mem.as_ptr() as usize, m, true);
+    }
+    #[inline(always)]
+    fn mask_store_i(self, mem: &mut [i32], m: Mask16, v: Self::I32) {
+        self.inner.mask_store_i(mem, m, v);
+        self.op(Class::Store, m.count(), true);
+        self.masked_contiguous(mem.as_ptr() as usize, m, true);
+    }
+    #[inline(always)]
+    fn gather_f(self, mem: &[f32], idx: Self::I32) -> Self::F32 {
+        let r = self.inner.gather_f(mem, idx);
+        self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false);
+        r
+    }
+    #[inline(always)]
+    fn gather_i(self, mem: &[i32], idx: Self::I32) -> Self::I32 {
+        let r = self.inner.gather_i(mem, idx);
+        self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false);
+        r
+    }
+    #[inline(always)]
+    fn mask_gather_f(self, src: Self::F32, m: Mask16, mem: &[f32], idx: Self::I32) -> Self::F32 {
+        let r = self.inner.mask_gather_f(src, m, mem, idx);
+        self.after_gather(mem.as_ptr() as usize, m, idx, true);
+        r
+    }
+    #[inline(always)]
+    fn mask_gather_i(self, src: Self::I32, m: Mask16, mem: &[i32], idx: Self::I32) -> Self::I32 {
+        let r = self.inner.mask_gather_i(src, m, mem, idx);
+        self.after_gather(mem.as_ptr() as usize, m, idx, true);
+        r
+    }
+    #[inline(always)]
+    fn mask_scatter_f(self, mem: &mut [f32], m: Mask16, idx: Self::I32, v: Self::F32) {
+        self.inner.mask_scatter_f(mem, m, idx, v);
+        self.after_scatter(mem.as_ptr() as usize, m, idx);
+    }
+    #[inline(always)]
+    fn mask_scatter_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, v: Self::I32) {
+        self.inner.mask_scatter_i(mem, m, idx, v);
+        self.after_scatter(mem.as_ptr() as usize, m, idx);
+    }
+    #[inline(always)]
+    fn compress_store_f(self, mem: &mut [f32], m: Mask16, v: Self::F32) -> usize {
+        let n = self.inner.compress_store_f(mem, m, v);
+        self.op(Class::CompressExpand, m.count(), true);
+        if n > 0 {
+            self.contiguous(mem.as_ptr() as usize, 0, n - 1, true);
+        }
+        n
+    }
+    #[inline(always)]
+    fn compress_store_i(self, mem: &mut [i32], m: Mask16, v: Self::I32) -> usize {
+        let n = self.inner.compress_store_i(mem, m, v);
+        self.op(Class::CompressExpand, m.count(), true);
+        if n > 0 {
+            self.contiguous(mem.as_ptr() as usize, 0, n - 1, true);
+        }
+        n
+    }
+    #[inline(always)]
+    fn expand_load_f(self, src: Self::F32, m: Mask16, mem: &[f32]) -> Self::F32 {
+        let r = self.inner.expand_load_f(src, m, mem);
+        self.op(Class::CompressExpand, m.count(), true);
+        let n = m.count() as usize;
+        if n > 0 {
+            self.contiguous(mem.as_ptr() as usize, 0, n - 1, false);
+        }
+        r
+    }
+    #[inline(always)]
+    fn expand_load_i(self, src: Self::I32, m: Mask16, mem: &[i32]) -> Self::I32 {
+        let r = self.inner.expand_load_i(src, m, mem);
+        self.op(Class::CompressExpand, m.count(), true);
+        let n = m.count() as usize;
+        if n > 0 {
+            self.contiguous(mem.as_ptr() as usize, 0, n - 1, false);
+        }
+        r
+    }
+    #[inline(always)]
+    fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32 {
+        let r = self.inner.fetch_add_i(mem, m, idx, val);
+        self.after_atomic(mem.as_ptr() as usize, m, idx);
+        r
+    }
+    #[inline(always)]
+    fn atomic_fetch_add_i(
+        self,
+        mem: &[AtomicI32],
+        m: Mask16,
+        idx: Self::I32,
+        val: Self::I32,
+    ) -> Self::I32 {
+        let r = self.inner.atomic_fetch_add_i(mem, m, idx, val);
+        self.after_atomic(mem.as_ptr() as usize, m, idx);
+        r
+    }
+
+    // ---------------- hooks ----------------
+
+    #[inline(always)]
+    fn begin_task(self, kind: u32) {
+        self.rec.begin_task(kind)
+    }
+    #[inline(always)]
+    fn end_task(self) {
+        self.rec.end_task()
+    }
+    #[inline(always)]
+    fn scalar_ops(self, n: u64) {
+        self.rec.with(|st| st.c.scalar += n)
+    }
+}
+
+impl<B: Simd> Counting<'_, B> {
+    fn after_gather(self, base: usize, m: Mask16, idx: B::I32, masked: bool) {
+        self.op(Class::Gather, m.count(), masked);
+        let idx = self.inner.to_array_i(idx);
+        let d = self.indexed(base, m, &idx, false);
+        self.rec.with(|st| st.c.gather_lines += d);
+    }
+    fn after_scatter(self, base: usize, m: Mask16, idx: B::I32) {
+        self.op(Class::Scatter, m.count(), true);
+        let idx = self.inner.to_array_i(idx);
+        let d = self.indexed(base, m, &idx, true);
+        self.rec.with(|st| st.c.scatter_lines += d);
+    }
+    fn after_atomic(self, base: usize, m: Mask16, idx: B::I32) {
+        self.op(Class::Atomic, m.count(), true);
+        let idx = self.inner.to_array_i(idx);
+        let d = self.indexed(base, m, &idx, true);
+        let mut conflicts = 0;
+        for i in m.iter() {
+            if m.iter().take_while(|&j| j < i).any(|j| idx[j] == idx[i]) {
+                conflicts += 1;
+            }
+        }
+        self.rec.with(|st| {
+            st.c.atomic_lines += d;
+            st.c.atomic_conflicts += conflicts;
+        });
+    }
+}
