@@ -1,0 +1,144 @@
+//! The `sism` command line. Parsing lives here; the work lives in the library.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+use sism::metrics;
+use sism::output::{pfm, pictures};
+use sism::reference::ReferenceOptions;
+use sism::render::{self, Algorithm};
+use sism::scene::Scene;
+
+#[derive(Parser)]
+#[command(
+    name = "sism",
+    version,
+    about = "Soft irregular shadow mapping on a modelled 16-wide SIMD many-core machine"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene's visibility and write visibility.pfm/png, shaded.png and stats.
+    Render {
+        /// Scene file (TOML, see CONTRACTS.md and README).
+        scene: PathBuf,
+        /// Algorithm.
+        #[arg(long, value_enum, default_value = "reference")]
+        algo: Algorithm,
+        /// Output folder (created if missing).
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Light-disk samples per receiver for the reference, 1..=65536.
+        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=65536))]
+        spp: u32,
+        /// Seed of the reference's sample jitter.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Override the scene's image width, pixels.
+        #[arg(long)]
+        width: Option<u32>,
+        /// Override the scene's image height, pixels.
+        #[arg(long)]
+        height: Option<u32>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Compare a visibility image with a reference: MAE, RMSE, p99, share of |error| > 0.1, penumbra MAE.
+    Compare {
+        /// Reference visibility (PFM).
+        reference: PathBuf,
+        /// Visibility to score (PFM).
+        test: PathBuf,
+        /// Write an |error| heat map PNG here (black 0, red, yellow at --heatmap-scale).
+        #[arg(long)]
+        heatmap: Option<PathBuf>,
+        /// |error| shown as full yellow in the heat map.
+        #[arg(long, default_value_t = 0.25)]
+        heatmap_scale: f32,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render {
+            scene,
+            algo,
+            out,
+            spp,
+            seed,
+            width,
+            height,
+            quiet,
+        } => {
+            let mut scene = Scene::load(&scene)?;
+            if let Some(w) = width {
+                scene.camera.width = w;
+            }
+            if let Some(h) = height {
+                scene.camera.height = h;
+            }
+            if let Err((key, msg)) = scene.camera.validate() {
+                anyhow::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
+            }
+            let options = ReferenceOptions {
+                spp,
+                seed,
+                progress: !quiet,
+            };
+            let result = render::render(&scene, algo, &options);
+            render::write_outputs(&out, &scene, &result)?;
+            if !quiet {
+                eprint!("{}", result.stats.to_text());
+                eprintln!("wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Command::Compare {
+            reference,
+            test,
+            heatmap,
+            heatmap_scale,
+            json,
+        } => {
+            let r = pfm::read_pfm(&reference)?;
+            let t = pfm::read_pfm(&test)?;
+            let report = metrics::compare(&r, &t)
+                .with_context(|| format!("comparing {} with {}", test.display(), reference.display()))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!("{report}");
+            }
+            if let Some(path) = heatmap {
+                anyhow::ensure!(
+                    heatmap_scale > 0.0 && heatmap_scale.is_finite(),
+                    "--heatmap-scale must be > 0"
+                );
+                let errors = metrics::abs_error_map(&r, &t)?;
+                pictures::write_error_heatmap(&path, r.width, r.height, &errors, heatmap_scale)?;
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,146 @@
+//! Error of a visibility image against a reference.
+//!
+//! Pixels count only where both images hold a receiver value (`V >= 0`): misses (NaN) and receivers
+//! facing away from the light (-1) are left out, as CONTRACTS.md says.
+
+use serde::Serialize;
+
+use crate::frame::VisibilityImage;
+
+/// `V_ref` range that makes a pixel a penumbra pixel for [`ErrorReport::penumbra_mae`].
+pub const PENUMBRA_RANGE: (f32, f32) = (0.02, 0.98);
+/// |error| above which a pixel counts as bad for [`ErrorReport::share_over_0_1`].
+pub const BAD_PIXEL_THRESHOLD: f32 = 0.1;
+
+/// Error statistics of a test image against a reference, over pixels valid in both.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct ErrorReport {
+    /// Pixels compared (receivers in both images).
+    pub compared: u64,
+    /// Mean absolute error.
+    pub mae: f64,
+    /// Root mean square error.
+    pub rmse: f64,
+    /// 99th percentile of |error| (nearest rank).
+    pub p99: f64,
+    /// Largest |error|.
+    pub max: f64,
+    /// Share of compared pixels with |error| > 0.1, in [0, 1].
+    pub share_over_0_1: f64,
+    /// Pixels whose reference value is in the penumbra range (0.02, 0.98).
+    pub penumbra_pixels: u64,
+    /// Mean absolute error over penumbra pixels (0 when there are none).
+    pub penumbra_mae: f64,
+}
+
+/// Why two images cannot be compared.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum CompareError {
+    #[error("images differ in size: reference {0}x{1}, test {2}x{3}")]
+    SizeMismatch(u32, u32, u32, u32),
+}
+
+/// Per-pixel |error| where both images hold receiver values, `None` elsewhere (for heat maps).
+pub fn abs_error_map(
+    reference: &VisibilityImage,
+    test: &VisibilityImage,
+) -> Result<Vec<Option<f32>>, CompareError> {
+    if (reference.width, reference.height) != (test.width, test.height) {
+        return Err(CompareError::SizeMismatch(
+            reference.width,
+            reference.height,
+            test.width,
+            test.height,
+        ));
+    }
+    Ok(reference
+        .values
+        .iter()
+        .zip(&test.values)
+        .map(|(&r, &t)| {
+            (VisibilityImage::is_receiver_value(r) && VisibilityImage::is_receiver_value(t))
+                .then(|| (t - r).abs())
+        })
+        .collect())
+}
+
+/// Compares `test` against `reference`.
+pub fn compare(reference: &VisibilityImage, test: &VisibilityImage) -> Result<ErrorReport, CompareError> {
+    let errors = abs_error_map(reference, test)?;
+    let mut abs: Vec<f32> = Vec::with_capacity(errors.len());
+    let (mut sum, mut sum2, mut bad, mut pen_n, mut pen_sum) = (0.0f64, 0.0f64, 0u64, 0u64, 0.0f64);
+    for (e, &r) in errors.iter().zip(&reference.values) {
+        let Some(e) = *e else { continue };
+        let e64 = e as f64;
+        abs.push(e);
+        sum += e64;
+        sum2 += e64 * e64;
+        bad += (e > BAD_PIXEL_THRESHOLD) as u64;
+        if r > PENUMBRA_RANGE.0 && r < PENUMBRA_RANGE.1 {
+            pen_n += 1;
+            pen_sum += e64;
+        }
+    }
+    let n = abs.len();
+    if n == 0 {
+        return Ok(ErrorReport::default());
+    }
+    let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
+    let p99 = *abs.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1 as f64;
+    let max = abs.iter().copied().fold(0.0f32, f32::max) as f64;
+    Ok(ErrorReport {
+        compared: n as u64,
+        mae: sum / n as f64,
+        rmse: (sum2 / n as f64).sqrt(),
+        p99,
+        max,
+        share_over_0_1: bad as f64 / n as f64,
+        penumbra_pixels: pen_n,
+        penumbra_mae: if pen_n > 0 { pen_sum / pen_n as f64 } else { 0.0 },
+    })
+}
+
+impl std::fmt::Display for ErrorReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "pixels compared      {}", self.compared)?;
+        writeln!(f, "MAE                  {:.6}", self.mae)?;
+        writeln!(f, "RMSE                 {:.6}", self.rmse)?;
+        writeln!(f, "p99 |error|          {:.6}", self.p99)?;
+        writeln!(f, "max |error|          {:.6}", self.max)?;
+        writeln!(f, "share |error| > 0.1  {:.6}", self.share_over_0_1)?;
+        writeln!(f, "penumbra pixels      {}", self.penumbra_pixels)?;
+        write!(f, "penumbra MAE         {:.6}", self.penumbra_mae)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(values: Vec<f32>) -> VisibilityImage {
+        VisibilityImage {
+            width: values.len() as u32,
+            height: 1,
+            values,
+        }
+    }
+
+    #[test]
+    fn hand_computed_example() {
+        let reference = img(vec![0.0, 0.5, 1.0, f32::NAN, -1.0, 0.5]);
+        let test = img(vec![0.2, 0.5, 0.95, 0.3, 0.3, f32::NAN]);
+        let r = compare(&reference, &test).unwrap();
+        assert_eq!(r.compared, 3); // pixels 0, 1, 2
+        assert!((r.mae - 0.25 / 3.0).abs() < 1e-6, "{r:?}");
+        assert!((r.rmse - ((0.04 + 0.0025) / 3.0f64).sqrt()).abs() < 1e-6);
+        assert!((r.p99 - 0.2).abs() < 1e-6);
+        assert!((r.share_over_0_1 - 1.0 / 3.0).abs() < 1e-6);
+        assert_eq!(r.penumbra_pixels, 1);
+        assert!(r.penumbra_mae.abs() < 1e-9);
+    }
+
+    #[test]
+    fn size_mismatch_is_an_error() {
+        assert!(compare(&img(vec![0.0; 2]), &img(vec![0.0; 3])).is_err());
+    }
+}

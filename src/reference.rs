@@ -1,0 +1,179 @@
+//! The ray-traced reference: `V(p)` by sampling the light disk with shadow rays.
+//!
+//! Primary visibility is ray casting through pixel centres (CONTRACTS.md camera). For each receiver
+//! facing the light, the disk of radius `r` around the light centre, perpendicular to `c - p`, is
+//! sampled with stratified, jittered samples (Shirley–Chiu concentric map, area-weighted strata so any
+//! sample count is unbiased) and a shadow ray tests each with early-out BVH traversal. Randomness is
+//! keyed by (seed, pixel), so the image is identical for any host thread count.
+
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::bvh::SceneBvh;
+use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
+use crate::sampling::{concentric_disk, Rng, Strata};
+use crate::scene::shapes::orthonormal_basis;
+use crate::scene::{Light, Scene};
+
+/// Settings of a reference render.
+#[derive(Clone, Copy, Debug)]
+pub struct ReferenceOptions {
+    /// Light-disk samples per receiver, >= 1 (ignored for a point light, which needs one ray).
+    pub spp: u32,
+    /// Seed of the jitter; the same seed gives the same image.
+    pub seed: u64,
+    /// Draw a progress bar on stderr (hidden when stderr is not a terminal).
+    pub progress: bool,
+}
+
+impl Default for ReferenceOptions {
+    fn default() -> Self {
+        Self {
+            spp: 256,
+            seed: 0,
+            progress: false,
+        }
+    }
+}
+
+/// Counts and times of a reference render.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReferenceStats {
+    pub primary_rays: u64,
+    pub receivers: u64,
+    pub receivers_facing_away: u64,
+    pub shadow_rays: u64,
+    pub time_primary: Duration,
+    pub time_shadow: Duration,
+}
+
+/// Casts one primary ray per pixel and returns the receivers.
+pub fn cast_primary_rays(scene: &Scene, bvh: &SceneBvh) -> Receivers {
+    let frame = scene.camera.frame();
+    let width = frame.width;
+    let mut pixels = vec![None; width as usize * frame.height as usize];
+    pixels
+        .par_chunks_mut(width as usize)
+        .enumerate()
+        .for_each(|(j, row)| {
+            for (i, px) in row.iter_mut().enumerate() {
+                let dir = frame.ray_direction(i as u32, j as u32);
+                *px = bvh.closest_hit(frame.eye, dir).map(|hit| Receiver {
+                    position: frame.eye + dir * hit.t,
+                    normal: if hit.normal.dot(dir) > 0.0 {
+                        -hit.normal
+                    } else {
+                        hit.normal
+                    },
+                });
+            }
+        });
+    Receivers {
+        width,
+        height: frame.height,
+        pixels,
+    }
+}
+
+/// Offset of shadow-ray origins along the receiver normal, world units: far enough to clear the
+/// receiver's own triangle in f32, small against any feature of the scene.
+#[inline]
+pub fn ray_offset(bvh: &SceneBvh, p: Vec3) -> f32 {
+    2e-5 * (bvh.scene_diagonal + p.abs().max_element())
+}
+
+/// Estimates `V` at receiver `r` with `strata.count()` disk samples drawn from `rng`. Returns the
+/// estimate and the number of shadow rays cast. A receiver facing away returns [`V_FACING_AWAY`].
+pub fn receiver_visibility(
+    bvh: &SceneBvh,
+    light: &Light,
+    r: &Receiver,
+    strata: &Strata,
+    rng: &mut Rng,
+) -> (f32, u32) {
+    let c = light.center();
+    let to_light = c - r.position;
+    if r.normal.dot(to_light) <= 0.0 {
+        return (V_FACING_AWAY, 0);
+    }
+    let origin = r.position + r.normal * ray_offset(bvh, r.position);
+    let visible = |target: Vec3| {
+        let d = target - origin;
+        let len = d.length();
+        // A light sample behind the offset origin's tangent plane is below the surface: occluded by it.
+        len > 0.0 && d.dot(r.normal) > 0.0 && !bvh.occluded(origin, d / len, len)
+    };
+    if light.radius == 0.0 {
+        return (visible(c) as u32 as f32, 1);
+    }
+    let (t, b) = orthonormal_basis(to_light.normalize());
+    let mut v = 0.0f32;
+    for k in 0..strata.count() {
+        let (u, weight) = strata.sample(k, rng);
+        let q = concentric_disk(u) * light.radius;
+        if visible(c + t * q.x + b * q.y) {
+            v += weight;
+        }
+    }
+    (v.clamp(0.0, 1.0), strata.count())
+}
+
+/// Renders reference visibility for every pixel of `receivers`.
+pub fn render_visibility(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    receivers: &Receivers,
+    options: &ReferenceOptions,
+) -> (VisibilityImage, u64) {
+    let strata = Strata::new(options.spp);
+    let width = receivers.width as usize;
+    let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
+    let bar = crate::progress::bar(receivers.height as u64, "reference shadow rays", options.progress);
+    let rays: u64 = image
+        .values
+        .par_chunks_mut(width)
+        .zip(receivers.pixels.par_chunks(width))
+        .enumerate()
+        .map(|(j, (out, row))| {
+            let mut rays = 0u64;
+            for (i, (v, r)) in out.iter_mut().zip(row).enumerate() {
+                if let Some(r) = r {
+                    let mut rng = Rng::new(options.seed, (j * width + i) as u64);
+                    let (value, n) = receiver_visibility(bvh, &scene.light, r, &strata, &mut rng);
+                    *v = value;
+                    rays += n as u64;
+                }
+            }
+            bar.inc(1);
+            rays
+        })
+        .sum();
+    bar.finish_and_clear();
+    (image, rays)
+}
+
+/// The whole reference render: primary rays, then shadow rays. The BVH is built by the caller so it can
+/// be timed apart and reused.
+pub fn render(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    options: &ReferenceOptions,
+) -> (Receivers, VisibilityImage, ReferenceStats) {
+    let t0 = Instant::now();
+    let receivers = cast_primary_rays(scene, bvh);
+    let time_primary = t0.elapsed();
+    let t1 = Instant::now();
+    let (image, shadow_rays) = render_visibility(scene, bvh, &receivers, options);
+    let time_shadow = t1.elapsed();
+    let stats = ReferenceStats {
+        primary_rays: receivers.pixels.len() as u64,
+        receivers: receivers.pixels.iter().filter(|r| r.is_some()).count() as u64,
+        receivers_facing_away: image.values.iter().filter(|&&v| v == V_FACING_AWAY).count() as u64,
+        shadow_rays,
+        time_primary,
+        time_shadow,
+    };
+    (receivers, image, stats)
+}
