@@ -1,0 +1,8 @@
+//! sism's integration tests: one binary, a module per feature (ripgrep's layout, so the crate links once).
+
+mod bad_input;
+mod closed_forms;
+mod convergence;
+mod obj_loading;
+mod shared_scenes;
+mod util;

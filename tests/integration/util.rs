@@ -1,0 +1,58 @@
+//! Helpers shared by the integration tests.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+/// Runs the `sism` binary with `args` in `dir`.
+pub fn sism(dir: &Path, args: &[&str]) -> Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_sism"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the sism binary runs")
+}
+
+/// Asserts that `out` is a clean failure: non-zero exit, no panic, and stderr mentions every `needle`.
+pub fn assert_clean_failure(out: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "expected failure, got success; stderr:\n{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "must not panic:\n{stderr}");
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr:\n{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "stderr should mention `{n}`:\n{stderr}");
+    }
+}
+
+/// The repository's shared scene folder (`../shared/scenes` beside the repo), when present.
+/// Outside CI a checkout without it skips the tests that need it; in CI (`CI` set) it must exist.
+pub fn shared_scenes() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    if dir.is_dir() {
+        Some(dir)
+    } else if std::env::var_os("CI").is_some() {
+        panic!("{} is missing: CI must provide ../shared", dir.display());
+    } else {
+        eprintln!("skipping: {} not found", dir.display());
+        None
+    }
+}
+
+/// A minimal valid camera and light block to append to test scenes.
+pub const CAMERA_AND_LIGHT: &str = r#"
+[camera]
+eye = [0.0, 2.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov_y_deg = 45.0
+width = 32
+height = 24
+
+[light]
+center = [0.0, 4.0, 0.0]
+radius = 0.3
+"#;
+
+/// A unit triangle OBJ.
+pub const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
