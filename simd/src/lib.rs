@@ -81,6 +81,7 @@
 mod common;
 mod counting;
 mod dispatch;
+pub mod examples;
 mod mask;
 mod portable;
 mod record;
