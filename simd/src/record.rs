@@ -261,15 +261,58 @@ fn unzigzag(z: u64) -> i64 {
     ((z >> 1) as i64) ^ -((z & 1) as i64)
 }
 
+/// Number of stream heads the line encoder predicts from.
+const SLOTS: usize = 4;
+/// A delta at most this large (in lines) continues a stream; larger ones
+/// start a new stream in the least recently used slot.
+const NEAR: u64 = 1024;
+
+/// Stream-head predictor shared by the encoder and the decoder.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+struct Heads {
+    line: [u64; SLOTS],
+    stamp: [u64; SLOTS],
+    t: u64,
+}
+
+impl Heads {
+    /// Slot whose head is nearest to `line`, and the delta from it.
+    #[inline]
+    fn nearest(&self, line: u64) -> (usize, i64) {
+        let mut best = (0, line.wrapping_sub(self.line[0]) as i64);
+        for s in 1..SLOTS {
+            let d = line.wrapping_sub(self.line[s]) as i64;
+            if d.unsigned_abs() < best.1.unsigned_abs() {
+                best = (s, d);
+            }
+        }
+        best
+    }
+    #[inline]
+    fn update(&mut self, slot: usize, delta: i64, line: u64) {
+        let s = if delta.unsigned_abs() <= NEAR {
+            slot
+        } else {
+            (0..SLOTS).min_by_key(|&i| self.stamp[i]).unwrap()
+        };
+        self.t += 1;
+        self.line[s] = line;
+        self.stamp[s] = self.t;
+    }
+}
+
 /// The ordered stream of 64-byte cache lines a task touched.
 ///
 /// Each access is a line number (`address >> 6`, real virtual addresses of
 /// the process) and a read/write flag. Consecutive repeats of the same line
-/// with the same flag are dropped. Entries are stored as delta-encoded,
-/// zig-zag varint tokens `((zz(delta) << 1 | write) << 1 | run)`; `run = 1`
-/// is followed by a varint `n - 2` meaning the same (delta, write) repeats
-/// `n` times — so a streaming pass costs a few bytes in total, and scattered
-/// accesses cost 2–4 bytes per line (measured figures in the README).
+/// with the same flag are dropped. Each remaining access is coded against
+/// the nearest of 4 recent *stream heads* (so interleaved streams — x, y,
+/// out arrays — each stay delta +1) as the zig-zag varint token
+/// `(((zz(delta) << 2 | slot) << 1 | write) << 1 | run)`; `run = 1` is
+/// followed by a varint `n - 2`: the same token repeats `n` times. A single
+/// streaming pass costs a few bytes in total, interleaved streams about
+/// 1 byte per line, scattered accesses 2–4 bytes per line (measured figures
+/// in the README).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LineStream {
     bytes: Vec<u8>,
@@ -303,9 +346,8 @@ impl LineStream {
         LineIter {
             b: &self.bytes,
             pos: 0,
-            line: 0,
-            delta: 0,
-            write: false,
+            heads: Heads::default(),
+            tok: 0,
             left: 0,
         }
     }
@@ -316,9 +358,8 @@ impl LineStream {
 pub struct LineIter<'a> {
     b: &'a [u8],
     pos: usize,
-    line: u64,
-    delta: i64,
-    write: bool,
+    heads: Heads,
+    tok: u64,
     left: u64,
 }
 
@@ -331,11 +372,8 @@ impl Iterator for LineIter<'_> {
             }
             let (tok, n) = get_varint(&self.b[self.pos..])?;
             self.pos += n;
-            let run = tok & 1 == 1;
-            let t = tok >> 1;
-            self.write = t & 1 == 1;
-            self.delta = unzigzag(t >> 1);
-            self.left = if run {
+            self.tok = tok >> 1;
+            self.left = if tok & 1 == 1 {
                 let (c, n) = get_varint(&self.b[self.pos..])?;
                 self.pos += n;
                 c + 2
@@ -344,8 +382,12 @@ impl Iterator for LineIter<'_> {
             };
         }
         self.left -= 1;
-        self.line = self.line.wrapping_add(self.delta as u64);
-        Some((self.line, self.write))
+        let write = self.tok & 1 == 1;
+        let slot = ((self.tok >> 1) & (SLOTS as u64 - 1)) as usize;
+        let delta = unzigzag(self.tok >> 3);
+        let line = self.heads.line[slot].wrapping_add(delta as u64);
+        self.heads.update(slot, delta, line);
+        Some((line, write))
     }
 }
 
@@ -353,27 +395,20 @@ impl Iterator for LineIter<'_> {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct LineEncoder {
     s: LineStream,
+    heads: Heads,
     last_write: bool,
-    run_delta: i64,
-    run_write: bool,
+    run_tok: u64,
     run_len: u64,
 }
 
 impl LineEncoder {
     fn from_stream(s: LineStream) -> Self {
-        // Re-open a finished stream: the last access's flag is unknown, so a
-        // repeat of the last line is kept (harmless).
-        LineEncoder {
-            last_write: false,
-            run_len: 0,
-            run_delta: 0,
-            run_write: false,
-            s: LineStream {
-                count: s.count,
-                last: if s.count == 0 { 0 } else { s.last },
-                bytes: s.bytes,
-            },
+        // Re-open a finished stream by replaying it (restores the heads).
+        let mut e = LineEncoder::default();
+        for (l, w) in s.iter() {
+            e.push(l, w);
         }
+        e
     }
 
     #[inline]
@@ -381,16 +416,17 @@ impl LineEncoder {
         if self.s.count != 0 && line == self.s.last && write == self.last_write {
             return;
         }
-        let delta = line.wrapping_sub(self.s.last) as i64;
+        let (slot, delta) = self.heads.nearest(line);
+        self.heads.update(slot, delta, line);
         self.s.last = line;
         self.last_write = write;
         self.s.count += 1;
-        if self.run_len > 0 && delta == self.run_delta && write == self.run_write {
+        let tok = (zigzag(delta) << 3) | ((slot as u64) << 1) | write as u64;
+        if self.run_len > 0 && tok == self.run_tok {
             self.run_len += 1;
         } else {
             self.flush();
-            self.run_delta = delta;
-            self.run_write = write;
+            self.run_tok = tok;
             self.run_len = 1;
         }
     }
@@ -399,11 +435,10 @@ impl LineEncoder {
         if self.run_len == 0 {
             return;
         }
-        let tok = ((zigzag(self.run_delta) << 1) | self.run_write as u64) << 1;
         if self.run_len == 1 {
-            put_varint(&mut self.s.bytes, tok);
+            put_varint(&mut self.s.bytes, self.run_tok << 1);
         } else {
-            put_varint(&mut self.s.bytes, tok | 1);
+            put_varint(&mut self.s.bytes, (self.run_tok << 1) | 1);
             put_varint(&mut self.s.bytes, self.run_len - 2);
         }
         self.run_len = 0;
