@@ -11,3 +11,4 @@ pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sism;

@@ -1,0 +1,1 @@
+//! Eye pass: binned sort-middle software rasterizer (being written).

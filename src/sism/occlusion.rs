@@ -1,0 +1,1 @@
+//! Penumbra occlusion kernel, paper Eq. 3 (being written).
