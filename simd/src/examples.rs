@@ -173,7 +173,6 @@ impl Kernel for Binning<'_> {
         let n = self.xs.len();
         let cells = self.w * self.h;
         assert!(self.starts.len() == cells + 1 && self.sorted.len() == n);
-        let zero = s.splat_f(0.0);
         let fw = s.splat_f(self.w as f32);
         let fh = s.splat_f(self.h as f32);
         let wi = s.splat_i(self.w as i32);
@@ -186,17 +185,31 @@ impl Kernel for Binning<'_> {
         counts.fill(0);
         // Pass 1: histogram, remembering each point's rank in its cell.
         s.begin_task(3);
-        let cell_of = |i: usize, m| {
-            let x = s.mask_load_f(zero, m, &self.xs[i..]);
-            let y = s.mask_load_f(zero, m, &self.ys[i..]);
-            let cx = s.min_i(s.max_i(s.floor_i(s.mul_f(x, fw)), zi), maxx);
-            let cy = s.min_i(s.max_i(s.floor_i(s.mul_f(y, fh)), zi), maxy);
+        // A nested #[inline(always)] fn rather than a closure: closures are
+        // not guaranteed to inline into the #[target_feature] entry point.
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn cell_of<S: Simd>(
+            s: S,
+            xs: &[f32],
+            ys: &[f32],
+            m: crate::Mask16,
+            f: (S::F32, S::F32),
+            max: (S::I32, S::I32),
+            wi: S::I32,
+        ) -> S::I32 {
+            let zero = s.splat_f(0.0);
+            let zi = s.splat_i(0);
+            let x = s.mask_load_f(zero, m, xs);
+            let y = s.mask_load_f(zero, m, ys);
+            let cx = s.min_i(s.max_i(s.floor_i(s.mul_f(x, f.0)), zi), max.0);
+            let cy = s.min_i(s.max_i(s.floor_i(s.mul_f(y, f.1)), zi), max.1);
             s.add_i(s.mul_i(cy, wi), cx)
-        };
+        }
         let mut i = 0;
         while i < n {
             let m = s.mask_first_n(n - i);
-            let cell = cell_of(i, m);
+            let cell = cell_of(s, &self.xs[i..], &self.ys[i..], m, (fw, fh), (maxx, maxy), wi);
             let rank = s.fetch_add_i(counts, m, cell, one);
             s.mask_store_i(&mut ranks[i..], m, rank);
             i += 16;
@@ -218,7 +231,7 @@ impl Kernel for Binning<'_> {
         let mut i = 0;
         while i < n {
             let m = s.mask_first_n(n - i);
-            let cell = cell_of(i, m);
+            let cell = cell_of(s, &self.xs[i..], &self.ys[i..], m, (fw, fh), (maxx, maxy), wi);
             let start = s.mask_gather_i(zi, m, self.starts, cell);
             let rank = s.mask_load_i(zi, m, &ranks[i..]);
             let pos = s.add_i(start, rank);

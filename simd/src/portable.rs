@@ -691,6 +691,16 @@ impl Simd for Portable {
     #[inline(always)]
     fn mask_load_f(self, src: F32x16, m: Mask16, mem: &[f32]) -> F32x16 {
         need("mask_load_f", mem.len(), masked_extent(m));
+        if mem.len() >= 16 {
+            // Full-width read + blend: inactive in-bounds elements are read
+            // but discarded, which a shared borrow makes unobservable.
+            let full: [f32; 16] = core::array::from_fn(|i| mem[i]);
+            let mut o = src.0;
+            for i in 0..16 {
+                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
+            }
+            return F32x16(o);
+        }
         let mut o = src.0;
         for i in m.iter() {
             o[i] = mem[i];
@@ -700,6 +710,16 @@ impl Simd for Portable {
     #[inline(always)]
     fn mask_load_i(self, src: I32x16, m: Mask16, mem: &[i32]) -> I32x16 {
         need("mask_load_i", mem.len(), masked_extent(m));
+        if mem.len() >= 16 {
+            // Full-width read + blend: inactive in-bounds elements are read
+            // but discarded, which a shared borrow makes unobservable.
+            let full: [i32; 16] = core::array::from_fn(|i| mem[i]);
+            let mut o = src.0;
+            for i in 0..16 {
+                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
+            }
+            return I32x16(o);
+        }
         let mut o = src.0;
         for i in m.iter() {
             o[i] = mem[i];
@@ -709,6 +729,15 @@ impl Simd for Portable {
     #[inline(always)]
     fn mask_store_f(self, mem: &mut [f32], m: Mask16, v: F32x16) {
         need("mask_store_f", mem.len(), masked_extent(m));
+        if mem.len() >= 16 {
+            // Full-width read-modify-write; the exclusive borrow makes
+            // rewriting inactive elements with their own value unobservable.
+            let dst = &mut mem[..16];
+            for i in 0..16 {
+                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
+            }
+            return;
+        }
         for i in m.iter() {
             mem[i] = v.0[i];
         }
@@ -716,6 +745,15 @@ impl Simd for Portable {
     #[inline(always)]
     fn mask_store_i(self, mem: &mut [i32], m: Mask16, v: I32x16) {
         need("mask_store_i", mem.len(), masked_extent(m));
+        if mem.len() >= 16 {
+            // Full-width read-modify-write; the exclusive borrow makes
+            // rewriting inactive elements with their own value unobservable.
+            let dst = &mut mem[..16];
+            for i in 0..16 {
+                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
+            }
+            return;
+        }
         for i in m.iter() {
             mem[i] = v.0[i];
         }
