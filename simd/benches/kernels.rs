@@ -61,7 +61,11 @@ fn bench(c: &mut Criterion) {
     let edges: Vec<[f32; 3]> = (0..4)
         .map(|_| {
             let a = r.f() * 6.2831855;
-            [a.cos() * 4.0, a.sin() * 4.0, -2.0 * (a.cos() + a.sin()) + (r.f() - 0.5) * 2.0]
+            [
+                a.cos() * 4.0,
+                a.sin() * 4.0,
+                -2.0 * (a.cos() + a.sin()) + (r.f() - 0.5) * 2.0,
+            ]
         })
         .collect();
 
@@ -70,7 +74,17 @@ fn bench(c: &mut Criterion) {
     for (name, m) in modes() {
         let mut out = vec![0i32; n];
         g.bench_function(BenchmarkId::from_parameter(&name), |b| {
-            b.iter(|| exec(m, PointInTriangles { xs: &xs, ys: &ys, tris: &tris, out: &mut out }))
+            b.iter(|| {
+                exec(
+                    m,
+                    PointInTriangles {
+                        xs: &xs,
+                        ys: &ys,
+                        tris: &tris,
+                        out: &mut out,
+                    },
+                )
+            })
         });
     }
     g.finish();
@@ -80,7 +94,17 @@ fn bench(c: &mut Criterion) {
     for (name, m) in modes() {
         let mut out = vec![0f32; n];
         g.bench_function(BenchmarkId::from_parameter(&name), |b| {
-            b.iter(|| exec(m, Occlusion { xs: &xs, ys: &ys, edges: &edges, out: &mut out }))
+            b.iter(|| {
+                exec(
+                    m,
+                    Occlusion {
+                        xs: &xs,
+                        ys: &ys,
+                        edges: &edges,
+                        out: &mut out,
+                    },
+                )
+            })
         });
     }
     g.finish();
@@ -92,7 +116,17 @@ fn bench(c: &mut Criterion) {
         let mut sorted = vec![0i32; n];
         g.bench_function(BenchmarkId::from_parameter(&name), |b| {
             b.iter(|| {
-                exec(m, Binning { xs: &xs, ys: &ys, w: 64, h: 64, starts: &mut starts, sorted: &mut sorted })
+                exec(
+                    m,
+                    Binning {
+                        xs: &xs,
+                        ys: &ys,
+                        w: 64,
+                        h: 64,
+                        starts: &mut starts,
+                        sorted: &mut sorted,
+                    },
+                )
             })
         });
     }
@@ -105,16 +139,45 @@ fn bench(c: &mut Criterion) {
         match k {
             0 => {
                 let mut out = vec![0i32; n];
-                run_counting_with(b, &rec, PointInTriangles { xs: &xs, ys: &ys, tris: &tris, out: &mut out })
+                run_counting_with(
+                    b,
+                    &rec,
+                    PointInTriangles {
+                        xs: &xs,
+                        ys: &ys,
+                        tris: &tris,
+                        out: &mut out,
+                    },
+                )
             }
             1 => {
                 let mut out = vec![0f32; n];
-                run_counting_with(b, &rec, Occlusion { xs: &xs, ys: &ys, edges: &edges, out: &mut out })
+                run_counting_with(
+                    b,
+                    &rec,
+                    Occlusion {
+                        xs: &xs,
+                        ys: &ys,
+                        edges: &edges,
+                        out: &mut out,
+                    },
+                )
             }
             _ => {
                 let mut starts = vec![0i32; 64 * 64 + 1];
                 let mut sorted = vec![0i32; n];
-                run_counting_with(b, &rec, Binning { xs: &xs, ys: &ys, w: 64, h: 64, starts: &mut starts, sorted: &mut sorted })
+                run_counting_with(
+                    b,
+                    &rec,
+                    Binning {
+                        xs: &xs,
+                        ys: &ys,
+                        w: 64,
+                        h: 64,
+                        starts: &mut starts,
+                        sorted: &mut sorted,
+                    },
+                )
             }
         }
         let tasks = rec.take_tasks();

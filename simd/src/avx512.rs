@@ -79,7 +79,7 @@ fn need(op: &str, mem_len: usize, n: usize) {
 #[track_caller]
 fn aligned<T>(op: &str, mem: &[T]) {
     let addr = mem.as_ptr() as usize;
-    if addr % 64 != 0 {
+    if !addr.is_multiple_of(64) {
         common::misaligned(op, addr);
     }
     need(op, mem.len(), 16);
@@ -91,9 +91,8 @@ fn aligned<T>(op: &str, mem: &[T]) {
 fn check_idx(op: &str, m: Mask16, idx: __m512i, len: usize) {
     let lim = common::index_limit(len);
     // SAFETY: `Avx512` exists, so avx512f is available (see module docs).
-    let bad = unsafe {
-        _mm512_mask_cmp_epu32_mask::<_MM_CMPINT_NLT>(k(m), idx, _mm512_set1_epi32(lim as i32))
-    };
+    let bad =
+        unsafe { _mm512_mask_cmp_epu32_mask::<_MM_CMPINT_NLT>(k(m), idx, _mm512_set1_epi32(lim as i32)) };
     if bad != 0 {
         common::oob_index(op, m, &to_i(idx), lim as usize);
     }
@@ -746,10 +745,7 @@ impl Simd for Avx512 {
         unsafe {
             let km = k(m);
             // conf[i]: active lanes j < i with the same index.
-            let conf = _mm512_and_si512(
-                _mm512_maskz_conflict_epi32(km, idx),
-                _mm512_set1_epi32(km as i32),
-            );
+            let conf = _mm512_and_si512(_mm512_maskz_conflict_epi32(km, idx), _mm512_set1_epi32(km as i32));
             // Exclusive prefix of val over each lane's earlier duplicates:
             // loop only over lanes that are someone's earlier duplicate.
             let mut pre = _mm512_setzero_si512();
@@ -761,12 +757,7 @@ impl Simd for Avx512 {
                 let vj = _mm512_permutexvar_epi32(_mm512_set1_epi32(j as i32), val);
                 pre = _mm512_mask_add_epi32(pre, has, pre, vj);
             }
-            let old = _mm512_mask_i32gather_epi32::<4>(
-                _mm512_setzero_si512(),
-                km,
-                idx,
-                mem.as_ptr(),
-            );
+            let old = _mm512_mask_i32gather_epi32::<4>(_mm512_setzero_si512(), km, idx, mem.as_ptr());
             let before = _mm512_add_epi32(old, pre);
             // Scatter writes in lane order: the last duplicate, holding the
             // group's full sum, wins.
@@ -776,13 +767,7 @@ impl Simd for Avx512 {
         }
     }
     #[inline(always)]
-    fn atomic_fetch_add_i(
-        self,
-        mem: &[AtomicI32],
-        m: Mask16,
-        idx: __m512i,
-        val: __m512i,
-    ) -> __m512i {
+    fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: __m512i, val: __m512i) -> __m512i {
         check_idx("atomic_fetch_add_i", m, idx, mem.len());
         let conf = to_i(unsafe { _mm512_conflict_epi32(idx) });
         let out = common::atomic_fetch_add(mem, m, &to_i(idx), &to_i(val), &conf);

@@ -1,6 +1,8 @@
 //! Scalar helpers shared by the backends: bounds checks with clear panic
 //! messages, reference lane semantics, and the atomic fetch-add.
 
+#![allow(clippy::needless_range_loop)]
+
 use crate::Mask16;
 use core::sync::atomic::{AtomicI32, Ordering};
 

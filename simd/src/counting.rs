@@ -611,13 +611,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
         r
     }
     #[inline(always)]
-    fn atomic_fetch_add_i(
-        self,
-        mem: &[AtomicI32],
-        m: Mask16,
-        idx: Self::I32,
-        val: Self::I32,
-    ) -> Self::I32 {
+    fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32 {
         let r = self.inner.atomic_fetch_add_i(mem, m, idx, val);
         self.after_atomic(mem.as_ptr() as usize, m, idx);
         r

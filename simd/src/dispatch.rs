@@ -170,7 +170,11 @@ fn from_env() -> BackendKind {
 /// that run concurrently.
 pub fn set_backend(kind: Option<BackendKind>) {
     if let Some(k) = kind {
-        assert!(available(k), "sism-simd: backend {} not available on this CPU", k.name());
+        assert!(
+            available(k),
+            "sism-simd: backend {} not available on this CPU",
+            k.name()
+        );
     }
     OVERRIDE.store(encode(kind), Ordering::Relaxed);
 }

@@ -123,11 +123,7 @@ impl Kernel for Occlusion<'_> {
             let py = s.mask_load_f(zero, m, &self.ys[i..]);
             let mut occ = zero;
             for e in self.edges {
-                let d = s.fmadd(
-                    s.splat_f(e[0]),
-                    px,
-                    s.fmadd(s.splat_f(e[1]), py, s.splat_f(e[2])),
-                );
+                let d = s.fmadd(s.splat_f(e[0]), px, s.fmadd(s.splat_f(e[1]), py, s.splat_f(e[2])));
                 let partial = s.mask_and(m, s.cmp_lt_f(s.abs_f(d), one));
                 let full = s.mask_and(m, s.cmp_le_f(d, s.neg_f(one)));
                 if s.mask_any(partial) {

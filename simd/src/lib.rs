@@ -92,8 +92,8 @@ pub mod avx512;
 
 pub use counting::{Counting, Recorder};
 pub use dispatch::{
-    available, available_backends, best_available, parse_backend, run_counting,
-    run_counting_with, run_native, run_with, selected_backend, set_backend, Kernel,
+    available, available_backends, best_available, parse_backend, run_counting, run_counting_with,
+    run_native, run_with, selected_backend, set_backend, Kernel,
 };
 pub use mask::{Mask16, MaskIter};
 pub use portable::{F32x16, I32x16, Portable};

@@ -6,6 +6,9 @@
 //! or AVX2+FMA inside [`crate::run_with`]'s `PortableAvx2` entry point).
 //! It defines the reference semantics the AVX-512 backend must match.
 
+// Indexed lane loops are deliberate: they are what LLVM vectorizes best.
+#![allow(clippy::needless_range_loop)]
+
 use crate::common::{self, check_indices, masked_extent};
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
@@ -130,7 +133,7 @@ pub(crate) fn maxf(a: f32, b: f32) -> f32 {
 /// x86 `cvttps2dq`: truncate, NaN / out of range → i32::MIN.
 #[inline(always)]
 pub(crate) fn cvtt(x: f32) -> i32 {
-    if x >= -2_147_483_648.0 && x < 2_147_483_648.0 {
+    if (-2_147_483_648.0..2_147_483_648.0).contains(&x) {
         x as i32
     } else {
         i32::MIN
@@ -171,7 +174,7 @@ fn need(op: &str, mem_len: usize, n: usize) {
 #[track_caller]
 fn aligned<T>(op: &str, mem: &[T]) {
     let addr = mem.as_ptr() as usize;
-    if addr % 64 != 0 {
+    if !addr.is_multiple_of(64) {
         common::misaligned(op, addr);
     }
     need(op, mem.len(), 16);
@@ -836,13 +839,7 @@ impl Simd for Portable {
         I32x16(o)
     }
     #[inline(always)]
-    fn atomic_fetch_add_i(
-        self,
-        mem: &[AtomicI32],
-        m: Mask16,
-        idx: I32x16,
-        val: I32x16,
-    ) -> I32x16 {
+    fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: I32x16, val: I32x16) -> I32x16 {
         check_indices(
             "atomic_fetch_add_i",
             m,

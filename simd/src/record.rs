@@ -464,8 +464,12 @@ mod tests {
         let mut want = Vec::new();
         let mut x = 0x1234_5678u64;
         for i in 0..5000u64 {
-            let line = if i % 7 < 4 { 1000 + i / 3 } else {
-                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let line = if i % 7 < 4 {
+                1000 + i / 3
+            } else {
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (x >> 20) & 0xFFFF_FFFF
             };
             let w = i % 11 == 0;
@@ -498,10 +502,12 @@ mod tests {
         for l in [5u64, 6, 7, 3, 100, 100, 99] {
             e.push(l, l == 3);
         }
-        let mut c = Counters::default();
-        c.valu = 12345678901;
-        c.gather_lines = 3;
-        c.atomic_conflicts = 1;
+        let c = Counters {
+            valu: 12345678901,
+            gather_lines: 3,
+            atomic_conflicts: 1,
+            ..Default::default()
+        };
         let r = TaskRecord {
             kind: 7,
             counters: c,

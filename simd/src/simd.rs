@@ -76,6 +76,7 @@ impl BackendKind {
 /// over `S` and itself marked `#[inline(always)]` is compiled as one body
 /// inside the `#[target_feature]` entry point chosen by
 /// [`crate::run_native`].
+#[allow(clippy::wrong_self_convention)]
 pub trait Simd: Copy {
     /// 16 × `f32`.
     type F32: Copy;
@@ -173,14 +174,7 @@ pub trait Simd: Copy {
     /// Merge-masked `a / b`.
     fn mask_div_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
     /// Merge-masked fused `a * b + c`.
-    fn mask_fmadd(
-        self,
-        src: Self::F32,
-        m: Mask16,
-        a: Self::F32,
-        b: Self::F32,
-        c: Self::F32,
-    ) -> Self::F32;
+    fn mask_fmadd(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
     /// Merge-masked `min_f`.
     fn mask_min_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
     /// Merge-masked `max_f`.
@@ -205,8 +199,9 @@ pub trait Simd: Copy {
     /// `a.is_nan() || b.is_nan()`.
     fn cmp_unord_f(self, a: Self::F32, b: Self::F32) -> Mask16;
 
-    /// Horizontal sum, in the fixed tree order `((((v[i] + v[i^8]) + ·[i^4])
-    /// + ·[i^2]) + ·[i^1])` read at lane 0 — the same on every backend.
+    /// Horizontal sum in a fixed tree order, the same on every backend: lane
+    /// `i` is combined with lane `i^8`, then `i^4`, `i^2`, `i^1`; the result
+    /// is lane 0.
     /// Counted as 4 vector ALU instructions.
     fn reduce_add_f(self, v: Self::F32) -> f32;
     /// Horizontal `min_f` in the same tree order as `reduce_add_f`
@@ -425,21 +420,14 @@ pub trait Simd: Copy {
     /// aiming at the same element are combined with conflict detection, so
     /// the result equals that sequential reference exactly. Returns `old`
     /// (0 in inactive lanes).
-    fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, val: Self::I32)
-        -> Self::I32;
+    fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32;
     /// Vector *atomic* fetch-add into shared memory (`Relaxed` ordering):
     /// lanes with equal indices are first combined in the register, then one
     /// atomic `fetch_add` per distinct element is issued (lowest lane's
     /// address first). Each active lane gets the value the element had just
     /// before its own contribution in lane order, so single-threaded the
     /// result equals the sequential reference. Inactive lanes return 0.
-    fn atomic_fetch_add_i(
-        self,
-        mem: &[AtomicI32],
-        m: Mask16,
-        idx: Self::I32,
-        val: Self::I32,
-    ) -> Self::I32;
+    fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32;
 
     // ------------------------------------------------------------------
     // Context hooks: no-ops natively, recorded by the counting context.
@@ -648,7 +636,7 @@ pub trait Simd: Copy {
 #[inline(always)]
 fn asin_kernel<S: Simd>(s_: S, s: S::F32, z: S::F32) -> S::F32 {
     let mut p = s_.splat_f(4.216_32e-2);
-    p = s_.fmadd(p, z, s_.splat_f(2.418_131_1e-2));
+    p = s_.fmadd(p, z, s_.splat_f(2.418_131e-2));
     p = s_.fmadd(p, z, s_.splat_f(4.547_002_6e-2));
     p = s_.fmadd(p, z, s_.splat_f(7.495_300_3e-2));
     p = s_.fmadd(p, z, s_.splat_f(1.666_675_2e-1));

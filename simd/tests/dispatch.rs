@@ -3,8 +3,8 @@
 //! cannot race with other tests.
 
 use sism_simd::{
-    available, best_available, parse_backend, run_native, selected_backend, set_backend,
-    BackendKind, Kernel, Simd,
+    available, best_available, parse_backend, run_native, selected_backend, set_backend, BackendKind, Kernel,
+    Simd,
 };
 
 struct Which;
@@ -20,7 +20,10 @@ impl Kernel for Which {
 fn selection() {
     assert_eq!(parse_backend("auto"), Some(None));
     assert_eq!(parse_backend("AVX512"), Some(Some(BackendKind::Avx512)));
-    assert_eq!(parse_backend("portable-baseline"), Some(Some(BackendKind::Portable)));
+    assert_eq!(
+        parse_backend("portable-baseline"),
+        Some(Some(BackendKind::Portable))
+    );
     assert!(matches!(
         parse_backend("portable"),
         Some(Some(BackendKind::Portable | BackendKind::PortableAvx2))
@@ -29,7 +32,10 @@ fn selection() {
 
     let env = std::env::var("SISM_SIMD").ok();
     let sel = selected_backend();
-    println!("SISM_SIMD={env:?} → {sel:?} (best available {:?})", best_available());
+    println!(
+        "SISM_SIMD={env:?} → {sel:?} (best available {:?})",
+        best_available()
+    );
     match env.as_deref() {
         Some("portable") => assert_ne!(sel, BackendKind::Avx512),
         Some("portable-baseline") => assert_eq!(sel, BackendKind::Portable),
@@ -38,7 +44,14 @@ fn selection() {
     }
     // The kernel sees the portable backend in both portable variants.
     let k = run_native(Which);
-    assert_eq!(k, if sel == BackendKind::Avx512 { BackendKind::Avx512 } else { BackendKind::Portable });
+    assert_eq!(
+        k,
+        if sel == BackendKind::Avx512 {
+            BackendKind::Avx512
+        } else {
+            BackendKind::Portable
+        }
+    );
 
     set_backend(Some(BackendKind::Portable));
     assert_eq!(selected_backend(), BackendKind::Portable);

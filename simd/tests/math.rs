@@ -4,8 +4,8 @@
 mod common;
 use common::*;
 use sism_simd::{
-    available, run_with, BackendKind, Kernel, Simd, ACOS_MAX_ABS_ERR, ACOS_MAX_REL_ERR,
-    ASIN_MAX_REL_ERR, ATAN2_MAX_ABS_ERR, ATAN2_MAX_REL_ERR,
+    available, run_with, BackendKind, Kernel, Simd, ACOS_MAX_ABS_ERR, ACOS_MAX_REL_ERR, ASIN_MAX_REL_ERR,
+    ATAN2_MAX_ABS_ERR, ATAN2_MAX_REL_ERR,
 };
 use std::marker::PhantomData;
 
@@ -65,7 +65,12 @@ fn eval<F: Fun>(x: &[f32], y: &[f32]) -> Vec<f32> {
         };
         let got = run(c, Apply::<F>(xs, ys, PhantomData));
         for (i, (a, b)) in got.iter().zip(&reference).enumerate() {
-            assert!(same_f32(*a, *b), "{c:?}: lane {i} x={} y={}: {a} vs {b}", xs[i], ys[i]);
+            assert!(
+                same_f32(*a, *b),
+                "{c:?}: lane {i} x={} y={}: {a} vs {b}",
+                xs[i],
+                ys[i]
+            );
         }
     }
     reference
@@ -102,7 +107,9 @@ impl Err {
 }
 
 fn acos_inputs() -> Vec<f32> {
-    let mut v: Vec<f32> = (0..=4_000_000).map(|i| -1.0 + 2.0 * i as f32 / 4_000_000.0).collect();
+    let mut v: Vec<f32> = (0..=4_000_000)
+        .map(|i| -1.0 + 2.0 * i as f32 / 4_000_000.0)
+        .collect();
     // every float within ~2^-12 of ±1 and of ±0.5 (the two branches)
     for &c in &[1.0f32, 0.5] {
         let mut x = c;
@@ -152,10 +159,23 @@ fn asin_accuracy() {
 
 #[test]
 fn acos_clamps_domain() {
-    let x = [1.5f32, -7.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.0, -1.0, 0.0, 1.0000001];
+    let x = [
+        1.5f32,
+        -7.0,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1.0,
+        -1.0,
+        0.0,
+        1.0000001,
+    ];
     let out = eval::<Acos>(&x, &x);
     let pi = std::f32::consts::PI;
-    assert_eq!(out, vec![0.0, pi, 0.0, pi, pi, 0.0, pi, std::f32::consts::FRAC_PI_2, 0.0]);
+    assert_eq!(
+        out,
+        vec![0.0, pi, 0.0, pi, pi, 0.0, pi, std::f32::consts::FRAC_PI_2, 0.0]
+    );
 }
 
 #[test]
@@ -178,7 +198,15 @@ fn atan2_accuracy() {
     // near the axes and near ±π (x < 0, tiny y), octant boundaries
     for k in 0..20_000 {
         let t = k as f32 * 1e-5;
-        for (y, x) in [(t, 1.0), (t, -1.0), (-t, -1.0), (1.0, t), (1.0, -t), (1.0, 1.0 + t), (0.41421357, 1.0 - t)] {
+        for (y, x) in [
+            (t, 1.0),
+            (t, -1.0),
+            (-t, -1.0),
+            (1.0, t),
+            (1.0, -t),
+            (1.0, 1.0 + t),
+            (0.41421357, 1.0 - t),
+        ] {
             ys.push(y);
             xs.push(x);
         }
@@ -199,7 +227,10 @@ fn atan2_accuracy() {
         e.add(t[i], out[i], (t[i] as f64).atan());
     }
     println!("atan: {e:?}");
-    assert!(e.abs <= ATAN2_MAX_ABS_ERR as f64 && e.rel <= ATAN2_MAX_REL_ERR as f64, "{e:?}");
+    assert!(
+        e.abs <= ATAN2_MAX_ABS_ERR as f64 && e.rel <= ATAN2_MAX_REL_ERR as f64,
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -246,7 +277,16 @@ fn atan2_special_cases() {
 fn positive_sweep() -> Vec<f32> {
     // log-uniform over the whole positive range incl. denormals, plus specials
     let mut v: Vec<f32> = (0..2_000_000u32).map(|i| f32::from_bits(1 + i * 1065)).collect();
-    v.extend([0.0, -0.0, f32::INFINITY, f32::MAX, f32::MIN_POSITIVE, 1e-45, -1.0, f32::NAN]);
+    v.extend([
+        0.0,
+        -0.0,
+        f32::INFINITY,
+        f32::MAX,
+        f32::MIN_POSITIVE,
+        1e-45,
+        -1.0,
+        f32::NAN,
+    ]);
     v
 }
 
@@ -269,7 +309,10 @@ fn sqrt_rcp_exact() {
         }
     }
     println!("rsqrt_f: {e:?}");
-    assert!(e.rel <= 2f64.powi(-23), "rsqrt_f documented rel error <= 2^-23: {e:?}");
+    assert!(
+        e.rel <= 2f64.powi(-23),
+        "rsqrt_f documented rel error <= 2^-23: {e:?}"
+    );
 }
 
 #[test]
@@ -278,7 +321,11 @@ fn fast_rcp_rsqrt_bounds() {
         .into_iter()
         .filter(|v| v.is_finite() && *v >= 1e-37 && *v <= 1e37)
         .collect();
-    let backends = [BackendKind::Avx512, BackendKind::PortableAvx2, BackendKind::Portable];
+    let backends = [
+        BackendKind::Avx512,
+        BackendKind::PortableAvx2,
+        BackendKind::Portable,
+    ];
     for b in backends.into_iter().filter(|&b| available(b)) {
         let rc = run_with(b, Apply::<RcpFast>(&x, &x, PhantomData));
         let rs = run_with(b, Apply::<RsqrtFast>(&x, &x, PhantomData));

@@ -60,7 +60,12 @@ impl Op for LoadStore {
         let mut oi = [0; N];
         of[N - 16 - off..][..16].copy_from_slice(&mf[off..off + 16]);
         oi[N - 16 - off..][..16].copy_from_slice(&mi[off..off + 16]);
-        (mf[off..off + 16].try_into().unwrap(), mi[off..off + 16].try_into().unwrap(), of, oi)
+        (
+            mf[off..off + 16].try_into().unwrap(),
+            mi[off..off + 16].try_into().unwrap(),
+            of,
+            oi,
+        )
     }
 }
 proptest! { #[test] fn load_store(mf in mem_f(), mi in mem_i(), off in 0usize..100) { check::<LoadStore>((mf, mi, off))?; } }
@@ -89,7 +94,11 @@ impl Op for AlignedLS {
     fn reference(m: [f32; 32]) -> Self::Out {
         let mut o = [0.0; 32];
         o[..16].copy_from_slice(&m[16..]);
-        (m[16..].try_into().unwrap(), o, core::array::from_fn(|i| i as i32 * 3))
+        (
+            m[16..].try_into().unwrap(),
+            o,
+            core::array::from_fn(|i| i as i32 * 3),
+        )
     }
 }
 proptest! { #[test] fn aligned_load_store(m in prop::array::uniform32(f32_any())) { check::<AlignedLS>(m)?; } }
@@ -306,8 +315,14 @@ fn atomic_fetch_add_multithreaded() {
                         fn run<S: Simd>(self, s: S) -> Vec<(i32, i32)> {
                             let mut tickets = Vec::new();
                             for it in 0..2000 {
-                                let idx: [i32; 16] = core::array::from_fn(|i| ((i as i32 * 7 + it + self.1) % 8) / 2 * 2);
-                                let r = s.atomic_fetch_add_i(self.0, Mask16::ALL, s.from_array_i(idx), s.splat_i(1));
+                                let idx: [i32; 16] =
+                                    core::array::from_fn(|i| ((i as i32 * 7 + it + self.1) % 8) / 2 * 2);
+                                let r = s.atomic_fetch_add_i(
+                                    self.0,
+                                    Mask16::ALL,
+                                    s.from_array_i(idx),
+                                    s.splat_i(1),
+                                );
                                 let r = s.to_array_i(r);
                                 for i in 0..16 {
                                     tickets.push((idx[i], r[i]));
@@ -350,20 +365,50 @@ macro_rules! oob {
                     .cloned()
                     .or_else(|| err.downcast_ref::<&str>().map(|s| s.to_string()))
                     .unwrap_or_default();
-                assert!(msg.contains("sism-simd"), "{c:?}: unexpected panic message {msg:?}");
+                assert!(
+                    msg.contains("sism-simd"),
+                    "{c:?}: unexpected panic message {msg:?}"
+                );
             }
         }
     };
 }
-oob!(oob_gather_high, |s, mem| s.mask_gather_i(s.splat_i(0), Mask16(1 << 5), &mem, s.splat_i(10)));
+oob!(oob_gather_high, |s, mem| s.mask_gather_i(
+    s.splat_i(0),
+    Mask16(1 << 5),
+    &mem,
+    s.splat_i(10)
+));
 oob!(oob_gather_negative, |s, mem| s.gather_i(&mem, s.splat_i(-1)));
-oob!(oob_scatter, |s, mem| s.mask_scatter_i(&mut mem, Mask16(0x8000), s.index_i(), s.splat_i(1)));
-oob!(oob_fetch_add, |s, mem| s.fetch_add_i(&mut mem, Mask16(0x0800), s.index_i(), s.splat_i(1)));
+oob!(oob_scatter, |s, mem| s.mask_scatter_i(
+    &mut mem,
+    Mask16(0x8000),
+    s.index_i(),
+    s.splat_i(1)
+));
+oob!(oob_fetch_add, |s, mem| s.fetch_add_i(
+    &mut mem,
+    Mask16(0x0800),
+    s.index_i(),
+    s.splat_i(1)
+));
 oob!(oob_load, |s, mem| s.load_i(&mem));
 oob!(oob_store, |s, mem| s.store_i(&mut mem, s.splat_i(0)));
-oob!(oob_mask_load, |s, mem| s.mask_load_i(s.splat_i(0), Mask16(1 << 10), &mem));
-oob!(oob_compress, |s, mem| s.compress_store_i(&mut mem, Mask16(0x0FFF), s.splat_i(0)));
-oob!(oob_expand, |s, mem| s.expand_load_i(s.splat_i(0), Mask16(0x0FFF), &mem));
+oob!(oob_mask_load, |s, mem| s.mask_load_i(
+    s.splat_i(0),
+    Mask16(1 << 10),
+    &mem
+));
+oob!(oob_compress, |s, mem| s.compress_store_i(
+    &mut mem,
+    Mask16(0x0FFF),
+    s.splat_i(0)
+));
+oob!(oob_expand, |s, mem| s.expand_load_i(
+    s.splat_i(0),
+    Mask16(0x0FFF),
+    &mem
+));
 oob!(oob_misaligned, |s, mem| {
     #[repr(align(64))]
     struct A([i32; 32]);
@@ -439,7 +484,7 @@ fn counting_records_memory() {
     assert_eq!(c.load, 2);
     // line stream: gather lines 0,1,2,3,0,1,2,3,... dedups only consecutive repeats
     let lines: Vec<_> = t[0].lines.iter().collect();
-    assert!(lines.len() >= 4 + 1 + 1);
+    assert!(lines.len() > 5);
     assert!(lines.iter().take(16).all(|&(_, w)| !w));
     assert!(lines.last().unwrap().1, "fetch-add recorded as a write");
 }

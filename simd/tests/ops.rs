@@ -9,14 +9,26 @@ use sism_simd::{Mask16, Simd};
 
 #[inline(always)]
 fn minf(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
+    if a < b {
+        a
+    } else {
+        b
+    }
 }
 #[inline(always)]
 fn maxf(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 fn cvtt(x: f32) -> i32 {
-    if x >= -2147483648.0 && x < 2147483648.0 { x as i32 } else { i32::MIN }
+    if (-2147483648.0..2147483648.0).contains(&x) {
+        x as i32
+    } else {
+        i32::MIN
+    }
 }
 fn tree<T: Copy>(v: [T; 16], f: impl Fn(T, T) -> T) -> T {
     let mut a = v;
@@ -59,7 +71,10 @@ macro_rules! f2 {
                 $s.to_array_f($v)
             }
             fn reference((a, b): Self::In) -> [f32; 16] {
-                core::array::from_fn(|i| { let ($x, $y) = (a[i], b[i]); $r })
+                core::array::from_fn(|i| {
+                    let ($x, $y) = (a[i], b[i]);
+                    $r
+                })
             }
         }
         proptest! { #[test] fn $t(a in arr_f(), b in arr_f()) { check::<$O>((a, b))?; } }
@@ -78,7 +93,10 @@ macro_rules! f3 {
                 $s.to_array_f($v)
             }
             fn reference((a, b, c): Self::In) -> [f32; 16] {
-                core::array::from_fn(|i| { let ($x, $y, $z) = (a[i], b[i], c[i]); $r })
+                core::array::from_fn(|i| {
+                    let ($x, $y, $z) = (a[i], b[i], c[i]);
+                    $r
+                })
             }
         }
         proptest! { #[test] fn $t(a in arr_f(), b in arr_f(), c in arr_f()) { check::<$O>((a, b, c))?; } }
@@ -118,7 +136,10 @@ macro_rules! fcmp {
             }
             fn reference((a, b): Self::In) -> Mask16 {
                 let mut m = 0u16;
-                for i in 0..16 { let ($x, $y) = (a[i], b[i]); m |= ($r as u16) << i; }
+                for i in 0..16 {
+                    let ($x, $y) = (a[i], b[i]);
+                    m |= ($r as u16) << i;
+                }
                 Mask16(m)
             }
         }
@@ -154,7 +175,10 @@ macro_rules! i2 {
                 $s.to_array_i($v)
             }
             fn reference((a, b): Self::In) -> [i32; 16] {
-                core::array::from_fn(|i| { let ($x, $y) = (a[i], b[i]); $r })
+                core::array::from_fn(|i| {
+                    let ($x, $y) = (a[i], b[i]);
+                    $r
+                })
             }
         }
         proptest! { #[test] fn $t(a in arr_i(), b in arr_i()) { check::<$O>((a, b))?; } }
@@ -191,7 +215,10 @@ macro_rules! icmp {
             }
             fn reference((a, b): Self::In) -> Mask16 {
                 let mut m = 0u16;
-                for i in 0..16 { let ($x, $y) = (a[i], b[i]); m |= ($r as u16) << i; }
+                for i in 0..16 {
+                    let ($x, $y) = (a[i], b[i]);
+                    m |= ($r as u16) << i;
+                }
                 Mask16(m)
             }
         }
@@ -243,13 +270,26 @@ f2!(mul_f, MulF, |s, a, b| s.mul_f(a, b), |x, y| x * y);
 f2!(div_f, DivF, |s, a, b| s.div_f(a, b), |x, y| x / y);
 f2!(min_f, MinF, |s, a, b| s.min_f(a, b), |x, y| minf(x, y));
 f2!(max_f, MaxF, |s, a, b| s.max_f(a, b), |x, y| maxf(x, y));
-f2!(copysign_f, CopysignF, |s, a, b| s.copysign_f(a, b), |x, y| x.copysign(y));
-f2!(mulsign_f, MulsignF, |s, a, b| s.mulsign_f(a, b), |x, y| if y.is_sign_negative() { -x } else { x });
-f3!(fmadd, Fmadd, |s, a, b, c| s.fmadd(a, b, c), |x, y, z| x.mul_add(y, z));
-f3!(fmsub, Fmsub, |s, a, b, c| s.fmsub(a, b, c), |x, y, z| x.mul_add(y, -z));
-f3!(fnmadd, Fnmadd, |s, a, b, c| s.fnmadd(a, b, c), |x, y, z| (-x).mul_add(y, z));
-f3!(clamp_f, ClampF, |s, a, b, c| s.clamp_f(a, b, c), |x, y, z| minf(maxf(x, y), z));
-f3!(lerp_f, LerpF, |s, a, b, c| s.lerp_f(a, b, c), |x, y, z| z.mul_add(y - x, x));
+f2!(copysign_f, CopysignF, |s, a, b| s.copysign_f(a, b), |x, y| x
+    .copysign(y));
+f2!(
+    mulsign_f,
+    MulsignF,
+    |s, a, b| s.mulsign_f(a, b),
+    |x, y| if y.is_sign_negative() { -x } else { x }
+);
+f3!(fmadd, Fmadd, |s, a, b, c| s.fmadd(a, b, c), |x, y, z| x
+    .mul_add(y, z));
+f3!(fmsub, Fmsub, |s, a, b, c| s.fmsub(a, b, c), |x, y, z| x
+    .mul_add(y, -z));
+f3!(fnmadd, Fnmadd, |s, a, b, c| s.fnmadd(a, b, c), |x, y, z| (-x)
+    .mul_add(y, z));
+f3!(clamp_f, ClampF, |s, a, b, c| s.clamp_f(a, b, c), |x, y, z| minf(
+    maxf(x, y),
+    z
+));
+f3!(lerp_f, LerpF, |s, a, b, c| s.lerp_f(a, b, c), |x, y, z| z
+    .mul_add(y - x, x));
 f1!(abs_f, AbsF, |s, a| s.abs_f(a), |x| x.abs());
 f1!(neg_f, NegF, |s, a| s.neg_f(a), |x| -x);
 f1!(sqrt_f, SqrtF, |s, a| s.sqrt_f(a), |x| x.sqrt());
@@ -261,15 +301,60 @@ f1!(trunc_f, TruncF, |s, a| s.trunc_f(a), |x| x.trunc());
 f1!(round_f, RoundF, |s, a| s.round_f(a), |x| x.round_ties_even());
 f1!(fract_f, FractF, |s, a| s.fract_f(a), |x| x - x.floor());
 
-mf2!(mask_add_f, MaskAddF, |s, src, m, a, b| s.mask_add_f(src, m, a, b), |x, y| x + y);
-mf2!(mask_sub_f, MaskSubF, |s, src, m, a, b| s.mask_sub_f(src, m, a, b), |x, y| x - y);
-mf2!(mask_mul_f, MaskMulF, |s, src, m, a, b| s.mask_mul_f(src, m, a, b), |x, y| x * y);
-mf2!(mask_div_f, MaskDivF, |s, src, m, a, b| s.mask_div_f(src, m, a, b), |x, y| x / y);
-mf2!(mask_min_f, MaskMinF, |s, src, m, a, b| s.mask_min_f(src, m, a, b), |x, y| minf(x, y));
-mf2!(mask_max_f, MaskMaxF, |s, src, m, a, b| s.mask_max_f(src, m, a, b), |x, y| maxf(x, y));
-mf2!(mask_fmadd, MaskFmadd, |s, src, m, a, b| s.mask_fmadd(src, m, a, b, a), |x, y| x.mul_add(y, x));
-mf2!(mask_sqrt_f, MaskSqrtF, |s, src, m, a, _b| s.mask_sqrt_f(src, m, a), |x, _y| x.sqrt());
-mf2!(select_f, SelectF, |s, src, m, a, _b| s.select_f(m, a, src), |x, _y| x);
+mf2!(
+    mask_add_f,
+    MaskAddF,
+    |s, src, m, a, b| s.mask_add_f(src, m, a, b),
+    |x, y| x + y
+);
+mf2!(
+    mask_sub_f,
+    MaskSubF,
+    |s, src, m, a, b| s.mask_sub_f(src, m, a, b),
+    |x, y| x - y
+);
+mf2!(
+    mask_mul_f,
+    MaskMulF,
+    |s, src, m, a, b| s.mask_mul_f(src, m, a, b),
+    |x, y| x * y
+);
+mf2!(
+    mask_div_f,
+    MaskDivF,
+    |s, src, m, a, b| s.mask_div_f(src, m, a, b),
+    |x, y| x / y
+);
+mf2!(
+    mask_min_f,
+    MaskMinF,
+    |s, src, m, a, b| s.mask_min_f(src, m, a, b),
+    |x, y| minf(x, y)
+);
+mf2!(
+    mask_max_f,
+    MaskMaxF,
+    |s, src, m, a, b| s.mask_max_f(src, m, a, b),
+    |x, y| maxf(x, y)
+);
+mf2!(
+    mask_fmadd,
+    MaskFmadd,
+    |s, src, m, a, b| s.mask_fmadd(src, m, a, b, a),
+    |x, y| x.mul_add(y, x)
+);
+mf2!(
+    mask_sqrt_f,
+    MaskSqrtF,
+    |s, src, m, a, _b| s.mask_sqrt_f(src, m, a),
+    |x, _y| x.sqrt()
+);
+mf2!(
+    select_f,
+    SelectF,
+    |s, src, m, a, _b| s.select_f(m, a, src),
+    |x, _y| x
+);
 
 fcmp!(cmp_eq_f, CmpEqF, |s, a, b| s.cmp_eq_f(a, b), |x, y| x == y);
 fcmp!(cmp_ne_f, CmpNeF, |s, a, b| s.cmp_ne_f(a, b), |x, y| x != y);
@@ -277,7 +362,9 @@ fcmp!(cmp_lt_f, CmpLtF, |s, a, b| s.cmp_lt_f(a, b), |x, y| x < y);
 fcmp!(cmp_le_f, CmpLeF, |s, a, b| s.cmp_le_f(a, b), |x, y| x <= y);
 fcmp!(cmp_gt_f, CmpGtF, |s, a, b| s.cmp_gt_f(a, b), |x, y| x > y);
 fcmp!(cmp_ge_f, CmpGeF, |s, a, b| s.cmp_ge_f(a, b), |x, y| x >= y);
-fcmp!(cmp_unord_f, CmpUnordF, |s, a, b| s.cmp_unord_f(a, b), |x, y| x.is_nan() || y.is_nan());
+fcmp!(cmp_unord_f, CmpUnordF, |s, a, b| s.cmp_unord_f(a, b), |x, y| x
+    .is_nan()
+    || y.is_nan());
 fcmp!(is_nan_f, IsNanF, |s, a, _b| s.is_nan_f(a), |x, _y| x.is_nan());
 
 fred!(reduce_add_f, ReduceAddF, |s, a| s.reduce_add_f(a), |x, y| x + y);
@@ -294,16 +381,49 @@ i2!(xor_i, XorI, |s, a, b| s.xor_i(a, b), |x, y| x ^ y);
 i2!(andn_i, AndnI, |s, a, b| s.andn_i(a, b), |x, y| !x & y);
 i2!(min_i, MinI, |s, a, b| s.min_i(a, b), |x, y| x.min(y));
 i2!(max_i, MaxI, |s, a, b| s.max_i(a, b), |x, y| x.max(y));
-i2!(min_u, MinU, |s, a, b| s.min_u(a, b), |x, y| (x as u32).min(y as u32) as i32);
-i2!(max_u, MaxU, |s, a, b| s.max_u(a, b), |x, y| (x as u32).max(y as u32) as i32);
-i2!(shlv_i, ShlvI, |s, a, b| s.shlv_i(a, b), |x, y| if (y as u32) < 32 { x << y } else { 0 });
-i2!(shrv_u, ShrvU, |s, a, b| s.shrv_u(a, b), |x, y| if (y as u32) < 32 { ((x as u32) >> y) as i32 } else { 0 });
-i2!(shrv_i, ShrvI, |s, a, b| s.shrv_i(a, b), |x, y| x >> (y as u32).min(31));
+i2!(
+    min_u,
+    MinU,
+    |s, a, b| s.min_u(a, b),
+    |x, y| (x as u32).min(y as u32) as i32
+);
+i2!(
+    max_u,
+    MaxU,
+    |s, a, b| s.max_u(a, b),
+    |x, y| (x as u32).max(y as u32) as i32
+);
+i2!(
+    shlv_i,
+    ShlvI,
+    |s, a, b| s.shlv_i(a, b),
+    |x, y| if (y as u32) < 32 { x << y } else { 0 }
+);
+i2!(
+    shrv_u,
+    ShrvU,
+    |s, a, b| s.shrv_u(a, b),
+    |x, y| if (y as u32) < 32 {
+        ((x as u32) >> y) as i32
+    } else {
+        0
+    }
+);
+i2!(shrv_i, ShrvI, |s, a, b| s.shrv_i(a, b), |x, y| x
+    >> (y as u32).min(31));
 i1!(abs_i, AbsI, |s, a| s.abs_i(a), |x| x.wrapping_abs());
 i1!(not_i, NotI, |s, a| s.not_i(a), |x| !x);
 i1!(neg_i, NegI, |s, a| s.neg_i(a), |x| x.wrapping_neg());
-ishift!(shl_i, ShlI, |s, a, n| s.shl_i(a, n), |x, n| if n < 32 { x << n } else { 0 });
-ishift!(shr_u, ShrU, |s, a, n| s.shr_u(a, n), |x, n| if n < 32 { ((x as u32) >> n) as i32 } else { 0 });
+ishift!(shl_i, ShlI, |s, a, n| s.shl_i(a, n), |x, n| if n < 32 {
+    x << n
+} else {
+    0
+});
+ishift!(shr_u, ShrU, |s, a, n| s.shr_u(a, n), |x, n| if n < 32 {
+    ((x as u32) >> n) as i32
+} else {
+    0
+});
 ishift!(shr_i, ShrI, |s, a, n| s.shr_i(a, n), |x, n| x >> n.min(31));
 
 icmp!(cmp_eq_i, CmpEqI, |s, a, b| s.cmp_eq_i(a, b), |x, y| x == y);
@@ -312,22 +432,50 @@ icmp!(cmp_lt_i, CmpLtI, |s, a, b| s.cmp_lt_i(a, b), |x, y| x < y);
 icmp!(cmp_le_i, CmpLeI, |s, a, b| s.cmp_le_i(a, b), |x, y| x <= y);
 icmp!(cmp_gt_i, CmpGtI, |s, a, b| s.cmp_gt_i(a, b), |x, y| x > y);
 icmp!(cmp_ge_i, CmpGeI, |s, a, b| s.cmp_ge_i(a, b), |x, y| x >= y);
-icmp!(cmp_lt_u, CmpLtU, |s, a, b| s.cmp_lt_u(a, b), |x, y| (x as u32) < (y as u32));
-icmp!(cmp_le_u, CmpLeU, |s, a, b| s.cmp_le_u(a, b), |x, y| (x as u32) <= (y as u32));
-icmp!(cmp_gt_u, CmpGtU, |s, a, b| s.cmp_gt_u(a, b), |x, y| (x as u32) > (y as u32));
-icmp!(cmp_ge_u, CmpGeU, |s, a, b| s.cmp_ge_u(a, b), |x, y| (x as u32) >= (y as u32));
+icmp!(cmp_lt_u, CmpLtU, |s, a, b| s.cmp_lt_u(a, b), |x, y| (x as u32)
+    < (y as u32));
+icmp!(cmp_le_u, CmpLeU, |s, a, b| s.cmp_le_u(a, b), |x, y| (x as u32)
+    <= (y as u32));
+icmp!(cmp_gt_u, CmpGtU, |s, a, b| s.cmp_gt_u(a, b), |x, y| (x as u32)
+    > (y as u32));
+icmp!(cmp_ge_u, CmpGeU, |s, a, b| s.cmp_ge_u(a, b), |x, y| (x as u32)
+    >= (y as u32));
 icmp!(test_i, TestI, |s, a, b| s.test_i(a, b), |x, y| x & y != 0);
 
-ired!(reduce_add_i, ReduceAddI, i32, |s, a| s.reduce_add_i(a), |v| v.iter().fold(0i32, |a, &b| a.wrapping_add(b)));
-ired!(reduce_min_i, ReduceMinI, i32, |s, a| s.reduce_min_i(a), |v| *v.iter().min().unwrap());
-ired!(reduce_max_i, ReduceMaxI, i32, |s, a| s.reduce_max_i(a), |v| *v.iter().max().unwrap());
-ired!(reduce_min_u, ReduceMinU, u32, |s, a| s.reduce_min_u(a), |v| v.iter().map(|&x| x as u32).min().unwrap());
-ired!(reduce_max_u, ReduceMaxU, u32, |s, a| s.reduce_max_u(a), |v| v.iter().map(|&x| x as u32).max().unwrap());
-ired!(reduce_or_i, ReduceOrI, i32, |s, a| s.reduce_or_i(a), |v| v.iter().fold(0, |a, &b| a | b));
-ired!(reduce_and_i, ReduceAndI, i32, |s, a| s.reduce_and_i(a), |v| v.iter().fold(-1, |a, &b| a & b));
-ired!(conflict_i, ConflictI, [i32; 16], |s, a| s.to_array_i(s.conflict_i(a)), |v| {
-    core::array::from_fn(|i| (0..i).filter(|&j| v[j] == v[i]).map(|j| 1 << j).sum())
-});
+ired!(reduce_add_i, ReduceAddI, i32, |s, a| s.reduce_add_i(a), |v| v
+    .iter()
+    .fold(0i32, |a, &b| a.wrapping_add(b)));
+ired!(reduce_min_i, ReduceMinI, i32, |s, a| s.reduce_min_i(a), |v| *v
+    .iter()
+    .min()
+    .unwrap());
+ired!(reduce_max_i, ReduceMaxI, i32, |s, a| s.reduce_max_i(a), |v| *v
+    .iter()
+    .max()
+    .unwrap());
+ired!(reduce_min_u, ReduceMinU, u32, |s, a| s.reduce_min_u(a), |v| v
+    .iter()
+    .map(|&x| x as u32)
+    .min()
+    .unwrap());
+ired!(reduce_max_u, ReduceMaxU, u32, |s, a| s.reduce_max_u(a), |v| v
+    .iter()
+    .map(|&x| x as u32)
+    .max()
+    .unwrap());
+ired!(reduce_or_i, ReduceOrI, i32, |s, a| s.reduce_or_i(a), |v| v
+    .iter()
+    .fold(0, |a, &b| a | b));
+ired!(reduce_and_i, ReduceAndI, i32, |s, a| s.reduce_and_i(a), |v| v
+    .iter()
+    .fold(-1, |a, &b| a & b));
+ired!(
+    conflict_i,
+    ConflictI,
+    [i32; 16],
+    |s, a| s.to_array_i(s.conflict_i(a)),
+    |v| core::array::from_fn(|i| (0..i).filter(|&j| v[j] == v[i]).map(|j| 1 << j).sum())
+);
 
 // conflict with many collisions
 proptest! {
@@ -363,7 +511,11 @@ impl Op for CvtFI {
         )
     }
     fn reference(a: [f32; 16]) -> Self::Out {
-        (a.map(cvtt), a.map(|x| cvtt(x.round_ties_even())), a.map(|x| cvtt(x.floor())))
+        (
+            a.map(cvtt),
+            a.map(|x| cvtt(x.round_ties_even())),
+            a.map(|x| cvtt(x.floor())),
+        )
     }
 }
 proptest! { #[test] fn cvtt_cvtr_floor_i(a in arr_f()) { check::<CvtFI>(a)?; } }
@@ -463,8 +615,20 @@ impl Op for MaskedI {
     }
     fn reference((src, m, a, b): Self::In) -> Self::Out {
         (
-            core::array::from_fn(|i| if mbit(m, i) { a[i].wrapping_add(b[i]) } else { src[i] }),
-            core::array::from_fn(|i| if mbit(m, i) { a[i].wrapping_sub(b[i]) } else { src[i] }),
+            core::array::from_fn(|i| {
+                if mbit(m, i) {
+                    a[i].wrapping_add(b[i])
+                } else {
+                    src[i]
+                }
+            }),
+            core::array::from_fn(|i| {
+                if mbit(m, i) {
+                    a[i].wrapping_sub(b[i])
+                } else {
+                    src[i]
+                }
+            }),
             core::array::from_fn(|i| if mbit(m, i) { a[i] } else { b[i] }),
         )
     }
@@ -525,8 +689,42 @@ fn mask16_helpers() {
 fn min_max_nan_and_zero_semantics() {
     // x86 minps/maxps: second operand when unordered or both zero.
     let nan = f32::NAN;
-    let a = [nan, 1.0, -0.0, 0.0, nan, f32::INFINITY, -1.0e-40, 3.0, 0., 0., 0., 0., 0., 0., 0., 0.];
-    let b = [1.0, nan, 0.0, -0.0, nan, nan, 1.0e-40, f32::NEG_INFINITY, 0., 0., 0., 0., 0., 0., 0., 0.];
+    let a = [
+        nan,
+        1.0,
+        -0.0,
+        0.0,
+        nan,
+        f32::INFINITY,
+        -1.0e-40,
+        3.0,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+    ];
+    let b = [
+        1.0,
+        nan,
+        0.0,
+        -0.0,
+        nan,
+        nan,
+        1.0e-40,
+        f32::NEG_INFINITY,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+        0.,
+    ];
     check::<MinF>((a, b)).unwrap();
     check::<MaxF>((a, b)).unwrap();
     let r = MinF::reference((a, b));

@@ -3,7 +3,9 @@
 #![allow(dead_code)]
 
 use proptest::prelude::*;
-use sism_simd::{available_backends, run_counting_with, run_with, BackendKind, Kernel, Mask16, Recorder, Simd};
+use sism_simd::{
+    available_backends, run_counting_with, run_with, BackendKind, Kernel, Mask16, Recorder, Simd,
+};
 use std::fmt::Debug;
 use std::sync::Once;
 
@@ -76,11 +78,7 @@ impl<A: Same, B: Same, C: Same, D: Same> Same for (A, B, C, D) {
 }
 impl<A: Same, B: Same, C: Same, D: Same, E: Same> Same for (A, B, C, D, E) {
     fn same(&self, o: &Self) -> bool {
-        self.0.same(&o.0)
-            && self.1.same(&o.1)
-            && self.2.same(&o.2)
-            && self.3.same(&o.3)
-            && self.4.same(&o.4)
+        self.0.same(&o.0) && self.1.same(&o.1) && self.2.same(&o.2) && self.3.same(&o.3) && self.4.same(&o.4)
     }
 }
 impl<T: Same> Same for Vec<T> {
