@@ -6,7 +6,8 @@ use core::sync::atomic::AtomicI32;
 /// Number of lanes of every vector.
 pub const LANES: usize = 16;
 
-/// Which implementation a context uses (see [`crate::dispatch`]).
+/// Which implementation a context uses (see [`crate::run_native`] and
+/// [`crate::selected_backend`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BackendKind {
     /// Native AVX-512 (`x86_64` with avx512f/cd/bw/dq/vl detected at run time).
