@@ -25,6 +25,7 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path, width: u32, height: u
         spp: 16,
         seed: 0,
         progress: false,
+        ..Default::default()
     };
     let (_, rays) = render_visibility(&scene, &bvh, &receivers, &options);
     let mut group = c.benchmark_group("reference_shadow_rays");

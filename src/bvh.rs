@@ -112,6 +112,20 @@ impl SceneBvh {
         hit
     }
 
+    /// Number of triangles crossing the open segment `origin + t * dir`, `t` in (0, `t_max`), among
+    /// those for which `counts(triangle index in Scene::triangles order)` is true. `dir` must be unit.
+    pub fn count_crossings(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: impl Fn(u32) -> bool) -> u32 {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        let mut n = 0;
+        self.bvh.ray_traverse_anyhit(ray, |ray, id| {
+            let t = self.triangles[id].intersect(ray);
+            if t < t_max && t > 0.0 && counts(self.original[id]) {
+                n += 1;
+            }
+        });
+        n
+    }
+
     /// Number of triangles in the BVH.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

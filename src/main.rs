@@ -67,6 +67,36 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Time against error: a high-spp truth, then the reference's spp sweep and SISM, each timed
+    /// (median of --repeats) and scored against the truth; writes bench.csv, bench.json, bench.png.
+    Bench {
+        /// Scene file (TOML, see CONTRACTS.md and README).
+        scene: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        /// The reference's spp sweep, comma-separated, each 1..=65536.
+        #[arg(long, default_value = "4,16,64,256")]
+        spp_list: String,
+        /// Light-disk samples per receiver of the truth render.
+        #[arg(long, default_value_t = 1024)]
+        truth_spp: u32,
+        /// Score against this visibility PFM instead of rendering a truth.
+        #[arg(long)]
+        truth: Option<PathBuf>,
+        /// Override the scene's image width, pixels.
+        #[arg(long)]
+        width: Option<u32>,
+        /// Override the scene's image height, pixels.
+        #[arg(long)]
+        height: Option<u32>,
+        /// Timed runs per configuration; the median is reported.
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+        /// No progress bars.
+        #[arg(long)]
+        quiet: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -105,6 +135,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 spp,
                 seed,
                 progress: !quiet,
+                ..Default::default()
             };
             let result = render::render(&scene, algo, &options);
             render::write_outputs(&out, &scene, &result)?;
@@ -137,6 +168,34 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
                 let errors = metrics::abs_error_map(&r, &t)?;
                 pictures::write_error_heatmap(&path, r.width, r.height, &errors, heatmap_scale)?;
+            }
+            Ok(())
+        }
+        Command::Bench {
+            scene,
+            out,
+            spp_list,
+            truth_spp,
+            truth,
+            width,
+            height,
+            repeats,
+            quiet,
+        } => {
+            let options = sism::bench_cmd::BenchOptions {
+                out,
+                spp_list: sism::bench_cmd::parse_spp_list(&spp_list)?,
+                truth_spp,
+                truth,
+                width,
+                height,
+                repeats,
+                progress: !quiet,
+            };
+            let report = sism::bench_cmd::bench(&scene, &options)?;
+            print!("{}", sism::bench_cmd::to_table(&report));
+            if !quiet {
+                eprintln!("wrote {}", options.out.display());
             }
             Ok(())
         }

@@ -16,6 +16,20 @@ use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
 use crate::sampling::{concentric_disk, Rng, Strata};
 use crate::scene::shapes::orthonormal_basis;
 use crate::scene::{Light, Scene};
+use crate::sism::silhouettes::SceneTopology;
+
+/// What the reference integrates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReferenceMode {
+    /// The visibility of CONTRACTS.md: the fraction of light samples no triangle blocks.
+    #[default]
+    Exact,
+    /// SISM's model without its single-point-of-projection approximation: `1 - clamp01(mean over
+    /// light samples of the number of counted occluder triangles crossed)`, i.e. occluders' coverages
+    /// added as if they never overlapped (the paper's C = 0). Comparing it with `Exact` measures the
+    /// overlap error; comparing SISM with it measures the rest.
+    AdditiveOverlap,
+}
 
 /// Settings of a reference render.
 #[derive(Clone, Copy, Debug)]
@@ -26,6 +40,8 @@ pub struct ReferenceOptions {
     pub seed: u64,
     /// Draw a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
+    /// What to integrate.
+    pub mode: ReferenceMode,
 }
 
 impl Default for ReferenceOptions {
@@ -34,6 +50,7 @@ impl Default for ReferenceOptions {
             spp: 256,
             seed: 0,
             progress: false,
+            mode: ReferenceMode::Exact,
         }
     }
 }
@@ -93,31 +110,63 @@ pub fn receiver_visibility(
     strata: &Strata,
     rng: &mut Rng,
 ) -> (f32, u32) {
+    disk_visibility(bvh, light, r, strata, rng, |origin, dir, len| {
+        bvh.occluded(origin, dir, len) as u32
+    })
+}
+
+/// [`ReferenceMode::AdditiveOverlap`] at receiver `r`: occluder crossings of the triangles that SISM
+/// counts (see `sism::silhouettes`), averaged over the disk samples and clamped.
+pub fn receiver_visibility_additive(
+    bvh: &SceneBvh,
+    topology: &SceneTopology,
+    light: &Light,
+    r: &Receiver,
+    strata: &Strata,
+    rng: &mut Rng,
+) -> (f32, u32) {
+    let c = light.center();
+    disk_visibility(bvh, light, r, strata, rng, |origin, dir, len| {
+        bvh.count_crossings(origin, dir, len, |t| topology.counts(t as usize, c))
+    })
+}
+
+/// `1 - clamp01(sum of weight * occlusion(sample))` over the light-disk samples; a sample below the
+/// receiver's tangent plane is hidden by the receiver's own surface and counts as one occluder.
+fn disk_visibility(
+    bvh: &SceneBvh,
+    light: &Light,
+    r: &Receiver,
+    strata: &Strata,
+    rng: &mut Rng,
+    occlusion: impl Fn(Vec3, Vec3, f32) -> u32,
+) -> (f32, u32) {
     let c = light.center();
     let to_light = c - r.position;
     if r.normal.dot(to_light) <= 0.0 {
         return (V_FACING_AWAY, 0);
     }
     let origin = r.position + r.normal * ray_offset(bvh, r.position);
-    let visible = |target: Vec3| {
+    let occluders = |target: Vec3| {
         let d = target - origin;
         let len = d.length();
-        // A light sample behind the offset origin's tangent plane is below the surface: occluded by it.
-        len > 0.0 && d.dot(r.normal) > 0.0 && !bvh.occluded(origin, d / len, len)
+        if len > 0.0 && d.dot(r.normal) > 0.0 {
+            occlusion(origin, d / len, len)
+        } else {
+            1
+        }
     };
     if light.radius == 0.0 {
-        return (visible(c) as u32 as f32, 1);
+        return ((1.0 - occluders(c).min(1) as f32), 1);
     }
     let (t, b) = orthonormal_basis(to_light.normalize());
-    let mut v = 0.0f32;
+    let mut occluded = 0.0f32;
     for k in 0..strata.count() {
         let (u, weight) = strata.sample(k, rng);
         let q = concentric_disk(u) * light.radius;
-        if visible(c + t * q.x + b * q.y) {
-            v += weight;
-        }
+        occluded += weight * occluders(c + t * q.x + b * q.y) as f32;
     }
-    (v.clamp(0.0, 1.0), strata.count())
+    (1.0 - occluded.clamp(0.0, 1.0), strata.count())
 }
 
 /// Renders reference visibility for every pixel of `receivers`.
@@ -131,6 +180,7 @@ pub fn render_visibility(
     let width = receivers.width as usize;
     let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
     let bar = crate::progress::bar(receivers.height as u64, "reference shadow rays", options.progress);
+    let topology = (options.mode == ReferenceMode::AdditiveOverlap).then(|| SceneTopology::build(scene));
     let rays: u64 = image
         .values
         .par_chunks_mut(width)
@@ -141,7 +191,12 @@ pub fn render_visibility(
             for (i, (v, r)) in out.iter_mut().zip(row).enumerate() {
                 if let Some(r) = r {
                     let mut rng = Rng::new(options.seed, (j * width + i) as u64);
-                    let (value, n) = receiver_visibility(bvh, &scene.light, r, &strata, &mut rng);
+                    let (value, n) = match &topology {
+                        None => receiver_visibility(bvh, &scene.light, r, &strata, &mut rng),
+                        Some(topo) => {
+                            receiver_visibility_additive(bvh, topo, &scene.light, r, &strata, &mut rng)
+                        }
+                    };
                     *v = value;
                     rays += n as u64;
                 }

@@ -10,12 +10,18 @@ use crate::output::stats::StatsReport;
 use crate::output::{pfm, pictures};
 use crate::reference::{self, ReferenceOptions};
 use crate::scene::Scene;
+use crate::sism;
 
 /// The visibility algorithms sism can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Algorithm {
     /// Ray-traced reference: stratified light-disk samples, one shadow ray each.
     Reference,
+    /// Soft irregular shadow mapping (Johnson et al. 2009) on the 16-wide kernels, run natively.
+    Sism,
+    /// Ray-traced SISM model without its projection approximation: occluders' coverages added as if
+    /// they never overlapped (the paper's C = 0). For attributing SISM's error.
+    ReferenceAdditive,
 }
 
 impl Algorithm {
@@ -23,6 +29,8 @@ impl Algorithm {
     pub fn name(self) -> &'static str {
         match self {
             Algorithm::Reference => "reference",
+            Algorithm::Sism => "sism",
+            Algorithm::ReferenceAdditive => "reference-additive",
         }
     }
 }
@@ -57,11 +65,29 @@ pub fn render(scene: &Scene, algorithm: Algorithm, reference_options: &Reference
     );
 
     let t0 = Instant::now();
-    let bvh = SceneBvh::build(scene);
-    let time_bvh = t0.elapsed();
     let (receivers, visibility) = match algorithm {
-        Algorithm::Reference => {
-            let (receivers, visibility, s) = reference::render(scene, &bvh, reference_options);
+        Algorithm::Sism => {
+            let prepared = sism::PreparedScene::new(scene);
+            let frame = sism::render_frame(scene, &prepared, &sism::SismOptions::default());
+            stats
+                .fact("simd_backend", format!("{:?}", sism_simd::selected_backend()))
+                .stat(
+                    "time.prepare_scene",
+                    prepared.build_time.as_secs_f64() * 1e3,
+                    "ms",
+                    "edge adjacency, built once per scene and reused across frames (host wall time)",
+                );
+            sism::report(&frame.stats, &mut stats);
+            (frame.receivers, frame.visibility)
+        }
+        Algorithm::Reference | Algorithm::ReferenceAdditive => {
+            let bvh = SceneBvh::build(scene);
+            let time_bvh = t0.elapsed();
+            let mut options = *reference_options;
+            if algorithm == Algorithm::ReferenceAdditive {
+                options.mode = reference::ReferenceMode::AdditiveOverlap;
+            }
+            let (receivers, visibility, s) = reference::render(scene, &bvh, &options);
             let shadow_s = s.time_shadow.as_secs_f64();
             stats
                 .fact("seed", reference_options.seed)

@@ -1,6 +1,501 @@
 //! Soft irregular shadow mapping (Johnson et al., I3D 2009), one module per stage of the algorithm.
 //! Every kernel is written once against `sism_simd` and runs natively (AVX-512 or portable) or under
 //! the counting context.
+//!
+//! [`render_frame`] reads as the algorithm: eye pass → light view and grid → umbra → silhouettes →
+//! penumbra → resolve.
 
+pub mod binning;
 pub mod eye_pass;
+pub mod grid;
+pub mod light_view;
 pub mod occlusion;
+pub mod penumbra;
+pub mod resolve;
+pub mod silhouettes;
+pub mod umbra;
+
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::frame::{Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
+use crate::output::stats::StatsReport;
+use crate::scene::Scene;
+use grid::{GridParams, SampleIn};
+use penumbra::PenumbraStats;
+use silhouettes::SceneTopology;
+use umbra::UmbraStats;
+
+/// Per-scene data built once and reused across frames (adjacency, closedness).
+pub struct PreparedScene {
+    pub topology: SceneTopology,
+    /// Host time it took to build.
+    pub build_time: Duration,
+}
+
+impl PreparedScene {
+    /// Builds the per-mesh data of `scene`.
+    pub fn new(scene: &Scene) -> PreparedScene {
+        let t = Instant::now();
+        let topology = SceneTopology::build(scene);
+        PreparedScene {
+            topology,
+            build_time: t.elapsed(),
+        }
+    }
+}
+
+/// Settings of the SISM algorithm.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SismOptions {
+    pub grid: GridParams,
+}
+
+/// Host wall time of each phase.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PhaseTimes {
+    pub eye_pass: Duration,
+    pub grid: Duration,
+    pub umbra: Duration,
+    pub silhouettes: Duration,
+    pub penumbra: Duration,
+    pub resolve: Duration,
+}
+
+impl PhaseTimes {
+    /// Sum of the phases.
+    pub fn total(&self) -> Duration {
+        self.eye_pass + self.grid + self.umbra + self.silhouettes + self.penumbra + self.resolve
+    }
+}
+
+/// Counters of one frame.
+#[derive(Clone, Debug, Default)]
+pub struct SismStats {
+    pub times: PhaseTimes,
+    pub eye_pass: eye_pass::EyePassStats,
+    pub receivers: u64,
+    pub receivers_facing_away: u64,
+    pub samples: u64,
+    pub light_faces: u64,
+    pub grid_columns: u64,
+    pub grid_cells: u64,
+    pub occupied_cells: u64,
+    pub bins: u64,
+    pub occupied_bins: u64,
+    pub umbra: UmbraStats,
+    pub penumbra: PenumbraStats,
+}
+
+/// One SISM frame: receivers and visibility.
+pub struct SismFrame {
+    pub receivers: Receivers,
+    pub visibility: VisibilityImage,
+    pub stats: SismStats,
+}
+
+/// Renders one frame of `scene` with SISM.
+pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptions) -> SismFrame {
+    let mut stats = SismStats::default();
+    let light = scene.light;
+    let c = light.center();
+
+    let t = Instant::now();
+    let (receivers, eye_stats) = eye_pass::eye_pass(scene);
+    stats.eye_pass = eye_stats;
+    stats.times.eye_pass = t.elapsed();
+
+    let t = Instant::now();
+    let (mut visibility, samples, widen, view) = light_samples(&receivers, c, light.radius, &mut stats);
+    let grid = grid::build(&view.faces, &samples, &options.grid);
+    drop(samples);
+    stats.light_faces = view.faces.len() as u64;
+    stats.grid_columns = grid
+        .faces
+        .iter()
+        .map(|g| (g.columns.x * g.columns.y) as u64)
+        .sum();
+    stats.grid_cells = (grid.cell_start.len() - 1) as u64;
+    stats.occupied_cells = grid.occupied_cells() as u64;
+    stats.bins = grid.bins.len() as u64;
+    stats.occupied_bins = grid.occupied_bins() as u64;
+    stats.times.grid = t.elapsed();
+
+    let t = Instant::now();
+    let topo = &prepared.topology;
+    let triangle_lists = umbra::bin_triangles(topo, c, &grid, &mut stats.umbra);
+    let depth = umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra);
+    stats.times.umbra = t.elapsed();
+
+    // A point light has no penumbra: no silhouette or penumbra work at all.
+    let penumbra = (light.radius > 0.0).then(|| {
+        let t = Instant::now();
+        let edges = topo.silhouettes(c);
+        stats.times.silhouettes = t.elapsed();
+        let t = Instant::now();
+        let quad_lists = penumbra::bin_quads(&edges, light.radius, &widen, &grid, &mut stats.penumbra);
+        let sums = penumbra::occlusion(
+            &edges,
+            light.radius,
+            &widen,
+            &grid,
+            &quad_lists,
+            &mut stats.penumbra,
+        );
+        stats.times.penumbra = t.elapsed();
+        sums
+    });
+
+    let t = Instant::now();
+    sism_simd::run_native(resolve::Resolve {
+        grid: &grid,
+        umbra: &depth,
+        penumbra: penumbra.as_deref(),
+        light_radius: light.radius,
+        image: &mut visibility,
+    });
+    stats.times.resolve = t.elapsed();
+    SismFrame {
+        receivers,
+        visibility,
+        stats,
+    }
+}
+
+/// Samples for the grid: the receivers facing the light, relative to its centre, with their light face
+/// and face coordinates, grouped by face. Also returns the image initialised with misses and back-facing
+/// receivers, each face's width factor `1 / cos(alpha)` for penumbra quads, and the light view.
+fn light_samples(
+    receivers: &Receivers,
+    c: Vec3,
+    radius: f32,
+    stats: &mut SismStats,
+) -> (VisibilityImage, Vec<SampleIn>, Vec<f32>, light_view::LightView) {
+    // Per pixel: miss, facing away, or a sample (q relative to the light, cos(theta)). Receivers facing
+    // away from the light never enter the grid; one at the light centre has no direction to it and is
+    // treated the same way.
+    let classified: Vec<Option<Option<(Vec3, f32)>>> = receivers
+        .pixels
+        .par_iter()
+        .map(|r| {
+            r.map(|r| {
+                let q = r.position - c;
+                let facing = r.normal.dot(-q);
+                (facing > 0.0 && q.length_squared() > 0.0).then(|| (q, (facing / q.length()).min(1.0)))
+            })
+        })
+        .collect();
+    let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
+    let mut points = Vec::new();
+    let mut pixels = Vec::new();
+    let mut cosines = Vec::new();
+    for (i, cl) in classified.iter().enumerate() {
+        match cl {
+            None => {}
+            Some(None) => {
+                stats.receivers += 1;
+                stats.receivers_facing_away += 1;
+                image.values[i] = V_FACING_AWAY;
+            }
+            Some(Some((q, cos))) => {
+                stats.receivers += 1;
+                image.values[i] = 1.0;
+                points.push(*q);
+                pixels.push(i as u32);
+                cosines.push(*cos);
+            }
+        }
+    }
+    let (view, face_of) = light_view::fit(&points);
+    let mut samples: Vec<SampleIn> = (0..points.len())
+        .into_par_iter()
+        .map(|k| {
+            let (q, face) = (points[k], face_of[k]);
+            let (uv, depth) = view.faces[face as usize].project(q);
+            SampleIn {
+                q,
+                face,
+                uv,
+                depth,
+                pixel: pixels[k],
+                cos_theta: cosines[k],
+            }
+        })
+        .collect();
+    if view.faces.len() > 1 {
+        samples.par_sort_by_key(|s| s.face); // stable: pixel order within a face
+    }
+    // Width factor per face: the line of sight from a sample through an edge deviates from the axis by
+    // at most the sample's own angle plus asin(r / distance).
+    let mut cos_min = vec![1.0f32; view.faces.len()];
+    let mut dist_min = vec![f32::INFINITY; view.faces.len()];
+    for s in &samples {
+        let len = s.q.length();
+        let f = s.face as usize;
+        cos_min[f] = cos_min[f].min(s.depth / len);
+        dist_min[f] = dist_min[f].min(len);
+    }
+    let widen = cos_min
+        .iter()
+        .zip(&dist_min)
+        .map(|(&cos, &dist)| {
+            let alpha = cos.clamp(-1.0, 1.0).acos() + (radius / dist).min(1.0).asin();
+            1.0 / alpha.min(89.0f32.to_radians()).cos()
+        })
+        .collect();
+    stats.samples = samples.len() as u64;
+    (image, samples, widen, view)
+}
+
+/// Adds the frame's counters and phase times to a statistics report.
+pub fn report(stats: &SismStats, out: &mut StatsReport) {
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let t = &stats.times;
+    out.stat(
+        "time.eye_pass",
+        ms(t.eye_pass),
+        "ms",
+        "eye pass: receivers of every pixel (host wall time)",
+    )
+    .stat(
+        "time.grid",
+        ms(t.grid),
+        "ms",
+        "light view and grid construction (host wall time)",
+    )
+    .stat(
+        "time.umbra",
+        ms(t.umbra),
+        "ms",
+        "umbra: triangle binning and depth complexity (host wall time)",
+    )
+    .stat(
+        "time.silhouettes",
+        ms(t.silhouettes),
+        "ms",
+        "silhouette edges w.r.t. the light centre (host wall time)",
+    )
+    .stat(
+        "time.penumbra",
+        ms(t.penumbra),
+        "ms",
+        "penumbra: quad binning and Eq. 3 (host wall time)",
+    )
+    .stat(
+        "time.resolve",
+        ms(t.resolve),
+        "ms",
+        "Eq. 4 composition into pixels (host wall time)",
+    )
+    .stat(
+        "time.frame",
+        ms(t.total()),
+        "ms",
+        "sum of the phases (host wall time)",
+    );
+    let u = &stats.umbra;
+    let p = &stats.penumbra;
+    let e = &stats.eye_pass;
+    let rows: [(&str, u64, &str, &str); 32] = [
+        (
+            "eye.triangles_in",
+            e.triangles_in,
+            "triangles",
+            "triangles entering the eye pass",
+        ),
+        (
+            "eye.triangles_clipped",
+            e.triangles_clipped,
+            "triangles",
+            "triangles clipped at the camera near plane",
+        ),
+        (
+            "eye.triangles_culled",
+            e.triangles_culled,
+            "triangles",
+            "triangles off screen or behind the camera: skipped",
+        ),
+        (
+            "eye.tile_triangle_pairs",
+            e.tile_triangle_pairs,
+            "pairs",
+            "(screen tile, triangle) pairs after binning",
+        ),
+        (
+            "eye.blocks_tested",
+            e.blocks_tested,
+            "blocks",
+            "4x4 pixel blocks tested 16-wide",
+        ),
+        (
+            "eye.pixels_covered",
+            e.pixels_covered,
+            "pixels",
+            "pixels with a receiver",
+        ),
+        (
+            "receivers",
+            stats.receivers,
+            "pixels",
+            "pixels whose eye ray hits a surface",
+        ),
+        (
+            "receivers.facing_away",
+            stats.receivers_facing_away,
+            "pixels",
+            "receivers facing away from the light: never enter the grid",
+        ),
+        (
+            "grid.samples",
+            stats.samples,
+            "samples",
+            "samples in the light-space grid",
+        ),
+        (
+            "grid.light_faces",
+            stats.light_faces,
+            "faces",
+            "light views: 1 frustum or 6 cube faces",
+        ),
+        (
+            "grid.columns",
+            stats.grid_columns,
+            "columns",
+            "image-plane cells over all faces",
+        ),
+        (
+            "grid.cells",
+            stats.grid_cells,
+            "cells",
+            "3D cells (columns x depth slices, whole bins)",
+        ),
+        (
+            "grid.occupied_cells",
+            stats.occupied_cells,
+            "cells",
+            "cells holding at least one sample",
+        ),
+        ("grid.bins", stats.bins, "bins", "light-view bins (tasks)"),
+        (
+            "grid.occupied_bins",
+            stats.occupied_bins,
+            "bins",
+            "bins holding samples; empty bins cost nothing",
+        ),
+        (
+            "umbra.triangles_counted",
+            u.triangles_counted,
+            "triangles",
+            "triangles that count as occluders",
+        ),
+        (
+            "umbra.triangles_back_facing",
+            u.triangles_back_facing,
+            "triangles",
+            "closed-mesh triangles facing away from the light: skipped",
+        ),
+        (
+            "umbra.face_triangles_culled",
+            u.face_triangles_culled,
+            "pairs",
+            "(face, triangle) pairs behind the light, behind all samples or off-image",
+        ),
+        (
+            "umbra.triangles_binned",
+            u.triangles_binned,
+            "pairs",
+            "(bin, triangle) pairs tested",
+        ),
+        (
+            "umbra.bin_pairs_culled_by_depth",
+            u.bin_pairs_culled_by_depth,
+            "pairs",
+            "(bin, triangle) pairs skipped: every sample nearer than the triangle",
+        ),
+        (
+            "umbra.samples_tested",
+            u.samples_tested,
+            "tests",
+            "sample-triangle tests (active lanes)",
+        ),
+        (
+            "penumbra.silhouettes",
+            p.silhouettes,
+            "edges",
+            "silhouette edge records w.r.t. the light centre",
+        ),
+        (
+            "penumbra.quads",
+            p.quads,
+            "quads",
+            "(face, edge) penumbra quads generated",
+        ),
+        (
+            "penumbra.quads_culled_face",
+            p.quads_culled_face,
+            "quads",
+            "quads behind the light, farther than all samples or off-image",
+        ),
+        (
+            "penumbra.quad_bin_pairs_before_culling",
+            p.quad_bin_pairs_before_culling,
+            "pairs",
+            "(bin, quad) pairs reached with the face-wide width",
+        ),
+        (
+            "penumbra.quad_bin_pairs_culled",
+            p.quad_bin_pairs_culled_by_bin_depth,
+            "pairs",
+            "(bin, quad) pairs dropped by the bin's depth-refined width",
+        ),
+        (
+            "penumbra.quad_bin_pairs",
+            p.quad_bin_pairs,
+            "pairs",
+            "(bin, quad) pairs processed",
+        ),
+        (
+            "penumbra.rows_culled_by_wedge",
+            p.rows_culled_by_wedge,
+            "rows",
+            "rows of columns under a quad the wedge misses",
+        ),
+        (
+            "penumbra.samples_culled_by_wedge",
+            p.samples_culled_by_wedge,
+            "samples",
+            "samples under a quad outside its wedge (by row depth or per sample)",
+        ),
+        (
+            "penumbra.samples_evaluated",
+            p.samples_evaluated,
+            "evaluations",
+            "Eq. 3 evaluations (active lanes)",
+        ),
+        (
+            "penumbra.evaluations_per_sample",
+            if stats.samples > 0 {
+                p.samples_evaluated / stats.samples
+            } else {
+                0
+            },
+            "evaluations",
+            "Eq. 3 evaluations per sample (integer mean)",
+        ),
+        (
+            "penumbra.evaluations_per_quad",
+            if p.quad_bin_pairs > 0 {
+                p.samples_evaluated / p.quad_bin_pairs
+            } else {
+                0
+            },
+            "evaluations",
+            "samples evaluated per (bin, quad) pair (integer mean)",
+        ),
+    ];
+    for (name, value, unit, desc) in rows {
+        out.stat(name, value as f64, unit, desc);
+    }
+}

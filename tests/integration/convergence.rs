@@ -21,6 +21,7 @@ fn render(scene: &Scene, bvh: &SceneBvh, spp: u32, seed: u64) -> sism::frame::Vi
         spp,
         seed,
         progress: false,
+        ..Default::default()
     };
     reference::render(scene, bvh, &options).1
 }

@@ -1,0 +1,510 @@
+//! The light-space 3D perspective grid of the paper's Figure 3: receiver samples sorted so that each
+//! cell's samples are contiguous in memory, cells ordered bin by bin (the light-view tiles that are the
+//! tasks of the umbra and penumbra stages), columns within a bin row by row, depth slices innermost. A
+//! column's samples from a given slice onward are therefore one contiguous range: depth culling is a
+//! change of start index.
+//!
+//! Built by counting sort, as a many-core chip would: classify samples 16 at a time (cell and bin
+//! indices), histogram bins per chunk with conflict-detecting vector fetch-add, prefix sum, scatter,
+//! then per bin a second counting sort by cell. Every step is deterministic (chunks and bins are fixed
+//! by the data, never by the host thread count).
+
+use std::ops::Range;
+
+use glam::{UVec2, Vec2, Vec3};
+use rayon::prelude::*;
+use sism_simd::{as_i32_mut, Kernel, Simd};
+
+use super::light_view::LightFace;
+
+/// Tuning of the grid resolution.
+#[derive(Clone, Copy, Debug)]
+pub struct GridParams {
+    /// Target mean number of samples per grid column (image-plane cell) over a face's image bounds;
+    /// the column count is `samples / samples_per_column`. Range 1..=64, default 4: small columns
+    /// make the conservative triangle and quad coverage tight, 16-lane vectors are filled by walking
+    /// several columns' contiguous samples.
+    pub samples_per_column: f32,
+    /// Depth slices per column, logarithmically spaced between the face's nearest and farthest
+    /// sample (a perspective grid). Range 1..=64, default 8.
+    pub slices: u32,
+    /// Bin side in columns: a bin is `bin_columns x bin_columns` columns. Range 1..=64, default 8.
+    pub bin_columns: u32,
+}
+
+impl Default for GridParams {
+    fn default() -> Self {
+        Self {
+            samples_per_column: 4.0,
+            slices: 8,
+            bin_columns: 8,
+        }
+    }
+}
+
+/// One receiver sample entering the grid: position relative to the light centre, its face and
+/// face coordinates, and the pixel it shades.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleIn {
+    pub q: Vec3,
+    pub face: u8,
+    pub uv: Vec2,
+    pub depth: f32,
+    pub pixel: u32,
+    /// Cosine between the receiver normal and the direction to the light centre, in (0, 1].
+    pub cos_theta: f32,
+}
+
+/// The grid laid over one light face.
+#[derive(Clone, Copy, Debug)]
+pub struct FaceGrid {
+    pub face: LightFace,
+    /// Image-plane position of the grid's lower corner.
+    pub uv_min: Vec2,
+    /// Image-plane size of one column.
+    pub cell_size: Vec2,
+    /// Columns along u and v.
+    pub columns: UVec2,
+    /// Bins along u and v.
+    pub bins: UVec2,
+    /// Index of this face's first bin in [`Grid::bins`].
+    pub first_bin: u32,
+    /// Nearest and farthest sample depth in this face (world units along the face axis).
+    pub z_min: f32,
+    pub z_max: f32,
+    /// Slices per unit of `ln(z)`: `slices / ln(z_max / z_min)`.
+    pub slice_scale: f32,
+    /// Sample count.
+    pub samples: u32,
+}
+
+impl FaceGrid {
+    /// Depth slice of depth `z`, in `0..slices`. Monotonic in `z`, so every sample in a slice below
+    /// `slice_of(z)` is nearer than `z`: skipping those slices is conservative.
+    #[inline]
+    pub fn slice_of(&self, z: f32, slices: u32) -> u32 {
+        let s = ((z / self.z_min).max(1.0).ln() * self.slice_scale) as i64;
+        s.clamp(0, slices as i64 - 1) as u32
+    }
+
+    /// Column range (inclusive lower, exclusive upper) covered by the image-plane box `[lo, hi]`,
+    /// clamped to the grid; empty when the box misses it.
+    #[inline]
+    pub fn column_range(&self, lo: Vec2, hi: Vec2) -> (UVec2, UVec2) {
+        let a = ((lo - self.uv_min) / self.cell_size).floor();
+        let b = ((hi - self.uv_min) / self.cell_size).floor() + Vec2::ONE;
+        let max = self.columns.as_vec2();
+        let a = a.clamp(Vec2::ZERO, max);
+        let b = b.clamp(Vec2::ZERO, max);
+        (a.as_uvec2(), b.as_uvec2())
+    }
+}
+
+/// One bin: `bin_columns^2` columns of one face, a task of the umbra and penumbra stages.
+#[derive(Clone, Debug)]
+pub struct Bin {
+    pub face: u32,
+    /// First column (u, v) of the bin in its face grid.
+    pub column0: UVec2,
+    /// Image-plane rectangle of the bin.
+    pub uv_min: Vec2,
+    pub uv_max: Vec2,
+    /// Range of the bin's samples in the sorted arrays.
+    pub samples: Range<u32>,
+    /// Nearest and farthest sample depth in the bin (0 and 0 when empty).
+    pub z_min: f32,
+    pub z_max: f32,
+}
+
+/// Samples sorted by cell, structure of arrays (what the 16-wide kernels load).
+#[derive(Clone, Debug, Default)]
+pub struct SortedSamples {
+    /// Position relative to the light centre, world axes.
+    pub x: Vec<f32>,
+    pub y: Vec<f32>,
+    pub z: Vec<f32>,
+    /// Image-plane position in the sample's light face.
+    pub u: Vec<f32>,
+    pub v: Vec<f32>,
+    /// Depth along the face axis.
+    pub depth: Vec<f32>,
+    /// Pixel index (row-major from the top left) the sample shades.
+    pub pixel: Vec<u32>,
+    /// Cosine between the receiver normal and the direction to the light centre, in (0, 1].
+    pub cos_theta: Vec<f32>,
+}
+
+/// The grid over all light faces.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    pub params: GridParams,
+    pub faces: Vec<FaceGrid>,
+    pub bins: Vec<Bin>,
+    /// `cell_start[c]..cell_start[c + 1]` are cell `c`'s samples; cells are numbered bin-major, then
+    /// column row-major within the bin, then slice. Length: cells + 1.
+    pub cell_start: Vec<u32>,
+    pub samples: SortedSamples,
+}
+
+impl Grid {
+    /// Cells per bin.
+    #[inline]
+    pub fn cells_per_bin(&self) -> usize {
+        (self.params.bin_columns * self.params.bin_columns * self.params.slices) as usize
+    }
+
+    /// Index of the first cell of column `(cu, cv)` (in the bin's face grid) of bin `bin`.
+    #[inline]
+    pub fn column_first_cell(&self, bin: usize, column: UVec2) -> usize {
+        let b = &self.bins[bin];
+        let local = column - b.column0;
+        bin * self.cells_per_bin()
+            + ((local.y * self.params.bin_columns + local.x) * self.params.slices) as usize
+    }
+
+    /// Sample range of a column from slice `first_slice` to its farthest slice.
+    #[inline]
+    pub fn column_samples(&self, bin: usize, column: UVec2, first_slice: u32) -> Range<usize> {
+        let c = self.column_first_cell(bin, column);
+        let s = self.params.slices as usize;
+        self.cell_start[c + first_slice as usize] as usize..self.cell_start[c + s] as usize
+    }
+
+    /// Number of cells holding at least one sample.
+    pub fn occupied_cells(&self) -> usize {
+        self.cell_start.windows(2).filter(|w| w[1] > w[0]).count()
+    }
+
+    /// Number of bins holding at least one sample.
+    pub fn occupied_bins(&self) -> usize {
+        self.bins.iter().filter(|b| !b.samples.is_empty()).count()
+    }
+}
+
+/// Samples classified per chunk; the unit of the first counting-sort pass.
+const CHUNK: usize = 8192;
+
+/// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it.
+pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> Grid {
+    debug_assert!(
+        samples.windows(2).all(|w| w[0].face <= w[1].face),
+        "samples grouped by face"
+    );
+    let b = params.bin_columns;
+    // Per-face resolution from the face's sample count and image bounds.
+    let mut face_grids = Vec::with_capacity(faces.len());
+    let mut first_bin = 0u32;
+    let mut start = 0usize;
+    for (f, face) in faces.iter().enumerate() {
+        let end = start
+            + samples[start..]
+                .iter()
+                .take_while(|s| s.face as usize == f)
+                .count();
+        let mine = &samples[start..end];
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let (mut z_min, mut z_max) = (f32::INFINITY, 0.0f32);
+        for s in mine {
+            lo = lo.min(s.uv);
+            hi = hi.max(s.uv);
+            z_min = z_min.min(s.depth);
+            z_max = z_max.max(s.depth);
+        }
+        let (columns, uv_min, cell_size) = if mine.is_empty() {
+            (UVec2::ZERO, Vec2::ZERO, Vec2::ONE)
+        } else {
+            // Pad the bounds by a hair so the largest sample lands inside the last column.
+            let extent = (hi - lo).max(Vec2::splat(1e-6)) * (1.0 + 1e-5);
+            let total = (mine.len() as f32 / params.samples_per_column).max(1.0);
+            let aspect = extent.x / extent.y;
+            let gu = (total * aspect).sqrt().ceil().clamp(1.0, 8192.0);
+            let gv = (total / gu).ceil().clamp(1.0, 8192.0);
+            let columns = UVec2::new(gu as u32, gv as u32);
+            (columns, lo, extent / columns.as_vec2())
+        };
+        let bins = UVec2::new(columns.x.div_ceil(b), columns.y.div_ceil(b));
+        let z_min = if mine.is_empty() { 1.0 } else { z_min };
+        let z_max = z_max.max(z_min);
+        let ratio_ln = (z_max / z_min).ln();
+        face_grids.push(FaceGrid {
+            face: *face,
+            uv_min,
+            cell_size,
+            columns,
+            bins,
+            first_bin,
+            z_min,
+            z_max,
+            slice_scale: if ratio_ln > 0.0 {
+                params.slices as f32 / ratio_ln * (1.0 - 1e-6)
+            } else {
+                0.0
+            },
+            samples: mine.len() as u32,
+        });
+        first_bin += bins.x * bins.y;
+        start = end;
+    }
+    let n_bins = first_bin as usize;
+
+    // Pass 1 (parallel over chunks): bin and local cell of every sample, and per-chunk bin counts.
+    let mut bin_of = vec![0u32; samples.len()];
+    let mut cell_of = vec![0u32; samples.len()];
+    let chunk_counts: Vec<Vec<u32>> = bin_of
+        .par_chunks_mut(CHUNK)
+        .zip(cell_of.par_chunks_mut(CHUNK))
+        .zip(samples.par_chunks(CHUNK))
+        .map(|((bins_out, cells_out), chunk)| {
+            let mut counts = vec![0u32; n_bins];
+            sism_simd::run_native(Classify {
+                samples: chunk,
+                faces: &face_grids,
+                params,
+                bin_out: bins_out,
+                cell_out: cells_out,
+                counts: &mut counts,
+            });
+            counts
+        })
+        .collect();
+
+    // Prefix sum, bin-major then chunk: each chunk's first write position in each bin.
+    let mut bin_start = vec![0u32; n_bins + 1];
+    let mut write_pos: Vec<Vec<u32>> = vec![vec![0; n_bins]; chunk_counts.len()];
+    let mut running = 0u32;
+    for bin in 0..n_bins {
+        bin_start[bin] = running;
+        for (k, counts) in chunk_counts.iter().enumerate() {
+            write_pos[k][bin] = running;
+            running += counts[bin];
+        }
+    }
+    bin_start[n_bins] = running;
+
+    // Pass 2: scatter sample indices to their bin's range (vector fetch-add on the write positions).
+    let mut by_bin = vec![0u32; samples.len()];
+    for (k, pos) in write_pos.iter_mut().enumerate() {
+        let lo = k * CHUNK;
+        let hi = (lo + CHUNK).min(samples.len());
+        sism_simd::run_native(ScatterToBins {
+            first_index: lo as u32,
+            bin_of: &bin_of[lo..hi],
+            write_pos: pos,
+            out: &mut by_bin,
+        });
+    }
+
+    // Pass 3 (parallel over bins): counting sort of each bin's samples by cell.
+    let cells_per_bin = (b * b * params.slices) as usize;
+    let mut cell_start = vec![0u32; n_bins * cells_per_bin + 1];
+    let mut sorted_index = vec![0u32; samples.len()];
+    {
+        let mut rest: &mut [u32] = &mut sorted_index;
+        let mut bin_slices = Vec::with_capacity(n_bins);
+        for bin in 0..n_bins {
+            let (head, tail) = rest.split_at_mut((bin_start[bin + 1] - bin_start[bin]) as usize);
+            bin_slices.push(head);
+            rest = tail;
+        }
+        bin_slices
+            .into_par_iter()
+            .zip(cell_start[..n_bins * cells_per_bin].par_chunks_mut(cells_per_bin))
+            .enumerate()
+            .for_each(|(bin, (out, starts))| {
+                let range = bin_start[bin] as usize..bin_start[bin + 1] as usize;
+                sort_bin_by_cell(&by_bin[range], &cell_of, bin_start[bin], starts, out);
+            });
+    }
+    cell_start[n_bins * cells_per_bin] = samples.len() as u32;
+
+    // Gather the sorted structure of arrays.
+    let take = |f: &(dyn Fn(&SampleIn) -> f32 + Sync)| -> Vec<f32> {
+        sorted_index
+            .par_iter()
+            .map(|&i| f(&samples[i as usize]))
+            .collect()
+    };
+    let sorted = SortedSamples {
+        x: take(&|s| s.q.x),
+        y: take(&|s| s.q.y),
+        z: take(&|s| s.q.z),
+        u: take(&|s| s.uv.x),
+        v: take(&|s| s.uv.y),
+        depth: take(&|s| s.depth),
+        cos_theta: take(&|s| s.cos_theta),
+        pixel: sorted_index
+            .par_iter()
+            .map(|&i| samples[i as usize].pixel)
+            .collect(),
+    };
+
+    // Bin descriptors with their sample ranges and depth bounds.
+    let mut bins = Vec::with_capacity(n_bins);
+    for (f, g) in face_grids.iter().enumerate() {
+        for by in 0..g.bins.y {
+            for bx in 0..g.bins.x {
+                let index = bins.len();
+                let range = bin_start[index]..bin_start[index + 1];
+                let depths = &sorted.depth[range.start as usize..range.end as usize];
+                let (z_min, z_max) = depths
+                    .iter()
+                    .fold((f32::INFINITY, 0.0f32), |(lo, hi), &z| (lo.min(z), hi.max(z)));
+                let column0 = UVec2::new(bx * b, by * b);
+                bins.push(Bin {
+                    face: f as u32,
+                    column0,
+                    uv_min: g.uv_min + column0.as_vec2() * g.cell_size,
+                    uv_max: g.uv_min + (column0 + UVec2::splat(b)).as_vec2() * g.cell_size,
+                    samples: range,
+                    z_min: if depths.is_empty() { 0.0 } else { z_min },
+                    z_max,
+                });
+            }
+        }
+    }
+    Grid {
+        params: *params,
+        faces: face_grids,
+        bins,
+        cell_start,
+        samples: sorted,
+    }
+}
+
+/// Counting sort of one bin's samples (`members`, global indices) by local cell. Writes the cells'
+/// global start offsets into `starts` (one per cell of the bin) and the sorted indices into `out`.
+fn sort_bin_by_cell(members: &[u32], cell_of: &[u32], bin_first: u32, starts: &mut [u32], out: &mut [u32]) {
+    let mut counts = vec![0u32; starts.len()];
+    for &i in members {
+        counts[cell_of[i as usize] as usize] += 1;
+    }
+    let mut running = 0u32;
+    for (s, c) in starts.iter_mut().zip(counts.iter_mut()) {
+        *s = bin_first + running;
+        let n = *c;
+        *c = running;
+        running += n;
+    }
+    for &i in members {
+        let c = &mut counts[cell_of[i as usize] as usize];
+        out[*c as usize] = i;
+        *c += 1;
+    }
+}
+
+/// Pass-1 kernel: per sample, its bin (global index) and cell within the bin; bin histogram.
+struct Classify<'a> {
+    samples: &'a [SampleIn],
+    faces: &'a [FaceGrid],
+    params: &'a GridParams,
+    bin_out: &'a mut [u32],
+    cell_out: &'a mut [u32],
+    counts: &'a mut [u32],
+}
+
+impl Kernel for Classify<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        let b = self.params.bin_columns as i32;
+        let slices = self.params.slices;
+        let counts = as_i32_mut(self.counts);
+        let one = s.splat_i(1);
+        for (k, chunk) in self.samples.chunks(16).enumerate() {
+            // Samples of a chunk may straddle a face boundary: take the face per lane (scalar setup of
+            // the lane's grid parameters, then 16-wide arithmetic).
+            let mut u = [0f32; 16];
+            let mut v = [0f32; 16];
+            let mut umin = [0f32; 16];
+            let mut vmin = [0f32; 16];
+            let mut inv_cu = [0f32; 16];
+            let mut inv_cv = [0f32; 16];
+            let mut gu = [1i32; 16];
+            let mut gv = [1i32; 16];
+            let mut bins_u = [1i32; 16];
+            let mut first_bin = [0i32; 16];
+            let mut slice = [0i32; 16];
+            for (lane, smp) in chunk.iter().enumerate() {
+                let g = &self.faces[smp.face as usize];
+                u[lane] = smp.uv.x;
+                v[lane] = smp.uv.y;
+                umin[lane] = g.uv_min.x;
+                vmin[lane] = g.uv_min.y;
+                inv_cu[lane] = 1.0 / g.cell_size.x;
+                inv_cv[lane] = 1.0 / g.cell_size.y;
+                gu[lane] = g.columns.x as i32;
+                gv[lane] = g.columns.y as i32;
+                bins_u[lane] = g.bins.x as i32;
+                first_bin[lane] = g.first_bin as i32;
+                slice[lane] = g.slice_of(smp.depth, slices) as i32;
+            }
+            s.scalar_ops(12 * chunk.len() as u64);
+            let m = s.mask_first_n(chunk.len());
+            let zero = s.splat_i(0);
+            let cu = s.floor_i(s.mul_f(
+                s.sub_f(s.from_array_f(u), s.from_array_f(umin)),
+                s.from_array_f(inv_cu),
+            ));
+            let cv = s.floor_i(s.mul_f(
+                s.sub_f(s.from_array_f(v), s.from_array_f(vmin)),
+                s.from_array_f(inv_cv),
+            ));
+            let cu = s.min_i(s.max_i(cu, zero), s.sub_i(s.from_array_i(gu), one));
+            let cv = s.min_i(s.max_i(cv, zero), s.sub_i(s.from_array_i(gv), one));
+            // b is a small constant (bin side), division by it is by shifts when a power of two;
+            // written generally here as multiply-free lane arithmetic on integers.
+            let (bu, lu) = div_rem(s, cu, b);
+            let (bv, lv) = div_rem(s, cv, b);
+            let bin = s.add_i(
+                s.add_i(s.mul_i(bv, s.from_array_i(bins_u)), bu),
+                s.from_array_i(first_bin),
+            );
+            let local_col = s.add_i(s.mul_i(lv, s.splat_i(b)), lu);
+            let cell = s.add_i(
+                s.mul_i(local_col, s.splat_i(slices as i32)),
+                s.from_array_i(slice),
+            );
+            let at = k * 16;
+            s.mask_store_i(as_i32_mut(&mut self.bin_out[at..]), m, bin);
+            s.mask_store_i(as_i32_mut(&mut self.cell_out[at..]), m, cell);
+            s.fetch_add_i(counts, m, bin, one);
+        }
+    }
+}
+
+/// Lane-wise `(x / d, x % d)` for non-negative `x` and a positive constant `d`, via float division
+/// (exact for the grid's index ranges, < 2^24).
+#[inline(always)]
+fn div_rem<S: Simd>(s: S, x: S::I32, d: i32) -> (S::I32, S::I32) {
+    let q = s.cvtt_f_i(s.mul_f(s.add_f(s.cvt_i_f(x), s.splat_f(0.5)), s.splat_f(1.0 / d as f32)));
+    (q, s.sub_i(x, s.mul_i(q, s.splat_i(d))))
+}
+
+/// Pass-2 kernel: each sample's position in its bin's range, by vector fetch-add on the chunk's write
+/// positions (lanes of the same bin get consecutive slots, in lane order); scatter of the indices.
+struct ScatterToBins<'a> {
+    first_index: u32,
+    bin_of: &'a [u32],
+    write_pos: &'a mut [u32],
+    out: &'a mut [u32],
+}
+
+impl Kernel for ScatterToBins<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        let pos = as_i32_mut(self.write_pos);
+        let out = as_i32_mut(self.out);
+        let one = s.splat_i(1);
+        for (k, chunk) in self.bin_of.chunks(16).enumerate() {
+            let m = s.mask_first_n(chunk.len());
+            let bins = s.mask_load_i(s.splat_i(0), m, sism_simd::as_i32(chunk));
+            let slot = s.fetch_add_i(pos, m, bins, one);
+            let index = s.add_i(
+                s.index_i(),
+                s.splat_i((self.first_index as usize + k * 16) as i32),
+            );
+            s.mask_scatter_i(out, m, slot, index);
+        }
+    }
+}

@@ -1,0 +1,146 @@
+//! Light views fitted to the receivers: one perspective frustum when every receiver lies within a cone
+//! around a common direction from the light, a cube of six views otherwise (a light inside the scene,
+//! receivers all around it, as in the conference room).
+//!
+//! Face coordinates of a point `q` given relative to the light centre: `x = q·right`, `y = q·up`,
+//! depth `z = q·axis` (> 0 in front of the face), image-plane position `(u, v) = (x / z, y / z)` on the
+//! plane at distance 1.
+
+use glam::{Vec2, Vec3};
+
+use crate::scene::shapes::orthonormal_basis;
+
+/// Largest half-angle (degrees) of the cone of receiver directions one frustum may cover. Beyond it the
+/// image plane stretches too much (cells near the border cover far more solid angle than those near the
+/// axis), so a cube of six 90-degree faces is used instead.
+pub const MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG: f32 = 60.0;
+
+/// One perspective view from the light centre.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightFace {
+    /// Unit view direction.
+    pub axis: Vec3,
+    /// Unit image-plane `u` direction.
+    pub right: Vec3,
+    /// Unit image-plane `v` direction.
+    pub up: Vec3,
+}
+
+impl LightFace {
+    /// Face coordinates `(x, y, z)` of `q` (relative to the light centre).
+    #[inline]
+    pub fn to_face(&self, q: Vec3) -> Vec3 {
+        Vec3::new(q.dot(self.right), q.dot(self.up), q.dot(self.axis))
+    }
+
+    /// Image-plane position and depth of `q`; meaningful only for `z > 0`.
+    #[inline]
+    pub fn project(&self, q: Vec3) -> (Vec2, f32) {
+        let f = self.to_face(q);
+        (Vec2::new(f.x / f.z, f.y / f.z), f.z)
+    }
+}
+
+/// The light's views and, for each sample, the face it belongs to.
+#[derive(Clone, Debug)]
+pub struct LightView {
+    pub faces: Vec<LightFace>,
+    /// True when the six cube faces are used.
+    pub is_cube: bool,
+}
+
+/// The six cube faces, each a 90-degree frustum; a direction belongs to the face of its largest
+/// component (ties to the lower face index, so the assignment is deterministic).
+pub fn cube_faces() -> Vec<LightFace> {
+    [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z]
+        .into_iter()
+        .map(|axis| {
+            let (right, up) = orthonormal_basis(axis);
+            LightFace { axis, right, up }
+        })
+        .collect()
+}
+
+/// Index into [`cube_faces`] of the face whose frustum holds direction `q`.
+#[inline]
+pub fn cube_face_of(q: Vec3) -> usize {
+    let a = q.abs();
+    if a.x >= a.y && a.x >= a.z {
+        if q.x >= 0.0 {
+            0
+        } else {
+            1
+        }
+    } else if a.y >= a.z {
+        if q.y >= 0.0 {
+            2
+        } else {
+            3
+        }
+    } else if q.z >= 0.0 {
+        4
+    } else {
+        5
+    }
+}
+
+/// Fits the light view to receiver positions `points` (relative to the light centre, none at it) and
+/// returns it with each point's face index.
+pub fn fit(points: &[Vec3]) -> (LightView, Vec<u8>) {
+    // The mean unit direction is the cone's axis; if every direction is within the half-angle limit of
+    // it, one frustum serves. Summation in a fixed order keeps the choice deterministic.
+    let mean = points
+        .iter()
+        .fold(Vec3::ZERO, |acc, q| acc + q.normalize_or_zero());
+    if let Some(axis) = mean.try_normalize() {
+        let cos_limit = MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG.to_radians().cos();
+        if points
+            .iter()
+            .all(|q| q.normalize_or_zero().dot(axis) >= cos_limit)
+        {
+            let (right, up) = orthonormal_basis(axis);
+            let view = LightView {
+                faces: vec![LightFace { axis, right, up }],
+                is_cube: false,
+            };
+            return (view, vec![0; points.len()]);
+        }
+    }
+    let faces = cube_faces();
+    let ids = points.iter().map(|&q| cube_face_of(q) as u8).collect();
+    (LightView { faces, is_cube: true }, ids)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn narrow_cone_gets_one_face_wide_spread_gets_a_cube() {
+        let narrow: Vec<Vec3> = (0..50).map(|i| Vec3::new(i as f32 * 0.01, -1.0, 0.2)).collect();
+        let (view, ids) = fit(&narrow);
+        assert_eq!(view.faces.len(), 1);
+        assert!(ids.iter().all(|&i| i == 0));
+        for q in &narrow {
+            assert!(view.faces[0].to_face(*q).z > 0.0);
+        }
+        let wide = vec![Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::new(0.1, -1.0, 0.0)];
+        let (view, ids) = fit(&wide);
+        assert!(view.is_cube);
+        assert_eq!(ids, vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn every_direction_is_in_front_of_its_cube_face_within_90_degrees() {
+        let faces = cube_faces();
+        for i in 0..1000 {
+            let t = i as f32 * 0.7;
+            let q = Vec3::new(t.sin() * 3.0, (t * 1.3).cos(), (t * 0.37).sin() - 0.2);
+            let f = faces[cube_face_of(q)].to_face(q);
+            assert!(
+                f.z > 0.0 && f.x.abs() <= f.z * 1.0001 && f.y.abs() <= f.z * 1.0001,
+                "{q} {f}"
+            );
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! Penumbra: a penumbra quad per silhouette edge, binned with per-bin width refinement, wedge depth
+//! culling per column, and the circle-segment occlusion kernel (paper Eq. 3) at every sample left.
+//!
+//! Quad width. In a light face (image plane at distance 1), a sample at image position `u_p` and depth
+//! `z_p` can see an edge point at `u_q`, depth `z_q`, inside the light's footprint only if
+//! `|u_p - u_q| <= r' (1/z_q - 1/z_p)`, with `r' = r / cos(alpha)` (alpha bounds the angle between the
+//! line of sight and the face axis; the footprint lies in a plane tilted by at most that much). So the
+//! quad around the projected edge has half-width `r' (1/z_edge_min - 1/z_max)`: with the face's farthest
+//! sample at first (the paper's Z), then with each bin's farthest sample (quads that no longer reach the
+//! bin are dropped), and per column the same bound solved for `z_p` gives the depth where the wedge
+//! enters the column: nearer samples are skipped (Section 2.5).
+
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+use glam::{UVec2, Vec2, Vec3};
+use rayon::prelude::*;
+use sism_simd::{Kernel, Simd};
+
+use super::binning::{bin_items, BinLists};
+use super::grid::{FaceGrid, Grid};
+use super::occlusion::{edge_term, EdgeRecord};
+use super::umbra::{bins_of_columns, near_plane, split_by_bins};
+
+/// Counters of the penumbra stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PenumbraStats {
+    /// Silhouette edge records (an edge with two counted same-side triangles is one record).
+    pub silhouettes: u64,
+    /// (face, edge) quads generated (before any culling against bins).
+    pub quads: u64,
+    /// Quads dropped for a face: behind the light, farther than every sample, or outside the image.
+    pub quads_culled_face: u64,
+    /// (bin, quad) pairs the face-wide width reaches.
+    pub quad_bin_pairs_before_culling: u64,
+    /// (bin, quad) pairs dropped after refining the width with the bin's farthest sample.
+    pub quad_bin_pairs_culled_by_bin_depth: u64,
+    /// (bin, quad) pairs processed.
+    pub quad_bin_pairs: u64,
+    /// Rows of columns under a quad skipped entirely by the wedge test.
+    pub rows_culled_by_wedge: u64,
+    /// Samples under a quad skipped by the wedge's entry depth.
+    pub samples_culled_by_wedge: u64,
+    /// Sample-edge evaluations of Eq. 3 (active lanes).
+    pub samples_evaluated: u64,
+}
+
+/// A face-space view of one edge: its clipped projected endpoints and nearest depth.
+#[derive(Clone, Copy, Debug)]
+struct QuadGeometry {
+    a: Vec2,
+    b: Vec2,
+    z_near: f32,
+}
+
+#[inline]
+fn quad_geometry(g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
+    let a = g.face.to_face(Vec3::from(e.a));
+    let b = g.face.to_face(Vec3::from(e.b));
+    // Clipped to the face's near plane, as the umbra clips its triangles.
+    let near = near_plane(g);
+    let clip = |p: Vec3, q: Vec3| -> Option<Vec3> {
+        if p.z >= near {
+            Some(p)
+        } else if q.z >= near {
+            let t = (near - p.z) / (q.z - p.z);
+            let mut x = p + (q - p) * t;
+            x.z = near;
+            Some(x)
+        } else {
+            None
+        }
+    };
+    let (ca, cb) = (clip(a, b)?, clip(b, a)?);
+    Some(QuadGeometry {
+        a: Vec2::new(ca.x / ca.z, ca.y / ca.z),
+        b: Vec2::new(cb.x / cb.z, cb.y / cb.z),
+        z_near: ca.z.min(cb.z),
+    })
+}
+
+/// Distance from segment `a b` to the axis-aligned rectangle `[lo, hi]` (0 when they touch).
+pub fn segment_rect_distance(a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> f32 {
+    let point_rect = |p: Vec2| (lo - p).max(p - hi).max(Vec2::ZERO).length();
+    let point_segment = |p: Vec2| {
+        let d = b - a;
+        let t = if d.length_squared() > 0.0 {
+            ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (a + d * t - p).length()
+    };
+    // Liang–Barsky: does the segment cross the rectangle?
+    let d = b - a;
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    let mut crosses = true;
+    for (p, q) in [
+        (-d.x, a.x - lo.x),
+        (d.x, hi.x - a.x),
+        (-d.y, a.y - lo.y),
+        (d.y, hi.y - a.y),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                crosses = false;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    if crosses && t0 <= t1 {
+        return 0.0;
+    }
+    let corners = [lo, Vec2::new(hi.x, lo.y), hi, Vec2::new(lo.x, hi.y)];
+    let mut best = point_rect(a).min(point_rect(b));
+    for c in corners {
+        best = best.min(point_segment(c));
+    }
+    best
+}
+
+/// Bins the silhouette edges' penumbra quads. `widen[f]` is face `f`'s `1 / cos(alpha)` factor.
+pub fn bin_quads(
+    edges: &[EdgeRecord],
+    light_radius: f32,
+    widen: &[f32],
+    grid: &Grid,
+    stats: &mut PenumbraStats,
+) -> BinLists {
+    let quads = AtomicU64::new(0);
+    let culled_face = AtomicU64::new(0);
+    let before = AtomicU64::new(0);
+    let culled_bin = AtomicU64::new(0);
+    let b = grid.params.bin_columns;
+    let lists = bin_items(grid.bins.len(), edges.len(), |e, out| {
+        let edge = &edges[e as usize];
+        for (f, g) in grid.faces.iter().enumerate().filter(|(_, g)| g.samples > 0) {
+            quads.fetch_add(1, Relaxed);
+            let r = light_radius * widen[f];
+            let Some(qg) = quad_geometry(g, edge).filter(|qg| qg.z_near < g.z_max) else {
+                culled_face.fetch_add(1, Relaxed);
+                continue;
+            };
+            let w = r * (1.0 / qg.z_near - 1.0 / g.z_max);
+            let (c0, c1) = g.column_range(qg.a.min(qg.b) - w, qg.a.max(qg.b) + w);
+            if c0.x >= c1.x || c0.y >= c1.y {
+                culled_face.fetch_add(1, Relaxed);
+                continue;
+            }
+            for bin in bins_of_columns(g, b, c0, c1) {
+                let bn = &grid.bins[bin];
+                if bn.samples.is_empty() {
+                    continue;
+                }
+                before.fetch_add(1, Relaxed);
+                let w_bin = r * (1.0 / qg.z_near - 1.0 / bn.z_max);
+                if w_bin <= 0.0 || segment_rect_distance(qg.a, qg.b, bn.uv_min, bn.uv_max) > w_bin {
+                    culled_bin.fetch_add(1, Relaxed);
+                    continue;
+                }
+                out.push((bin as u32, e));
+            }
+        }
+    });
+    stats.silhouettes += edges.len() as u64;
+    stats.quads += quads.into_inner();
+    stats.quads_culled_face += culled_face.into_inner();
+    stats.quad_bin_pairs_before_culling += before.into_inner();
+    stats.quad_bin_pairs_culled_by_bin_depth += culled_bin.into_inner();
+    stats.quad_bin_pairs += lists.pairs() as u64;
+    lists
+}
+
+/// Sum of the signed edge terms at every sample (sorted order), computed bin by bin.
+pub fn occlusion(
+    edges: &[EdgeRecord],
+    light_radius: f32,
+    widen: &[f32],
+    grid: &Grid,
+    lists: &BinLists,
+    stats: &mut PenumbraStats,
+) -> Vec<f32> {
+    let mut sums = vec![0f32; grid.samples.pixel.len()];
+    let counters: Vec<[u64; 3]> = split_by_bins(&mut sums, grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| !lists.of(*bin).is_empty())
+        .map(|(bin, out)| {
+            sism_simd::run_native(PenumbraBin {
+                edges,
+                light_radius,
+                widen: widen[grid.bins[bin].face as usize],
+                grid,
+                bin,
+                quads: lists.of(bin),
+                out,
+            })
+        })
+        .collect();
+    for c in counters {
+        stats.rows_culled_by_wedge += c[0];
+        stats.samples_culled_by_wedge += c[1];
+        stats.samples_evaluated += c[2];
+    }
+    sums
+}
+
+/// Task kind of penumbra bins in counting records.
+pub const TASK_PENUMBRA_BIN: u32 = 3;
+
+/// The per-bin penumbra task.
+pub struct PenumbraBin<'a> {
+    pub edges: &'a [EdgeRecord],
+    pub light_radius: f32,
+    pub widen: f32,
+    pub grid: &'a Grid,
+    pub bin: usize,
+    pub quads: &'a [u32],
+    /// Penumbra sums of the bin's samples (bin-local indices).
+    pub out: &'a mut [f32],
+}
+
+impl Kernel for PenumbraBin<'_> {
+    /// `[rows culled, samples culled, samples evaluated]`.
+    type Output = [u64; 3];
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> [u64; 3] {
+        s.begin_task(TASK_PENUMBRA_BIN);
+        let grid = self.grid;
+        let bin = &grid.bins[self.bin];
+        let g = &grid.faces[bin.face as usize];
+        let base = bin.samples.start as usize;
+        let end_of_bin = bin.samples.end as usize;
+        let bin_c1 = (bin.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
+        // A hair of slack keeps the per-sample test conservative under f32 rounding.
+        let r = self.light_radius * self.widen * (1.0 + 1e-4);
+        let smp = &grid.samples;
+        let (xs, ys, zs) = (
+            &smp.x[base..end_of_bin],
+            &smp.y[base..end_of_bin],
+            &smp.z[base..end_of_bin],
+        );
+        let zero = s.splat_f(0.0);
+        let one = s.splat_f(1.0);
+        let lane = s.index_i();
+        // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
+        // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
+        let mut selected = vec![0i32; bin.samples.len() + 16];
+        let mut counters = [0u64; 3];
+        for &e in self.quads {
+            let edge = &self.edges[e as usize];
+            let Some(qg) = quad_geometry(g, edge) else {
+                continue;
+            };
+            let inv_near = 1.0 / qg.z_near;
+            let w_bin = r * (inv_near - 1.0 / bin.z_max);
+            let (c0, c1) = g.column_range(qg.a.min(qg.b) - w_bin, qg.a.max(qg.b) + w_bin);
+            let (c0, c1) = (c0.max(bin.column0), c1.min(bin_c1));
+            let ab = qg.b - qg.a;
+            let inv_len2 = if ab.length_squared() > 0.0 {
+                1.0 / ab.length_squared()
+            } else {
+                0.0
+            };
+            let (ax, ay, abx, aby) = (
+                s.splat_f(qg.a.x),
+                s.splat_f(qg.a.y),
+                s.splat_f(ab.x),
+                s.splat_f(ab.y),
+            );
+            let (inv_len2v, inv_near_v, rv) = (s.splat_f(inv_len2), s.splat_f(inv_near), s.splat_f(r));
+            let mut n_selected = 0usize;
+            for row in c0.y..c1.y {
+                // Wedge test for the row of columns: where the wedge enters it in depth (Section 2.5);
+                // nearer slices of its first column are skipped, then each sample is tested exactly.
+                let lo = g.uv_min + UVec2::new(c0.x, row).as_vec2() * g.cell_size;
+                let hi = g.uv_min + UVec2::new(c1.x, row + 1).as_vec2() * g.cell_size;
+                let d = segment_rect_distance(qg.a, qg.b, lo, hi);
+                let first = grid.column_samples(self.bin, UVec2::new(c0.x, row), 0).start;
+                let end = grid.column_samples(self.bin, UVec2::new(c1.x - 1, row), 0).end;
+                let inv_enter = inv_near - d / r;
+                s.scalar_ops(40);
+                if inv_enter <= 1.0 / bin.z_max {
+                    counters[0] += 1;
+                    counters[1] += (end - first) as u64;
+                    continue;
+                }
+                let first_slice = g.slice_of(1.0 / inv_enter, grid.params.slices);
+                let start = grid
+                    .column_samples(self.bin, UVec2::new(c0.x, row), first_slice)
+                    .start;
+                counters[1] += (start - first) as u64;
+                let mut i = start;
+                while i < end {
+                    let m = s.mask_first_n(end - i);
+                    let u = s.mask_load_f(zero, m, &smp.u[i..]);
+                    let v = s.mask_load_f(zero, m, &smp.v[i..]);
+                    let depth = s.mask_load_f(one, m, &smp.depth[i..]);
+                    // Distance from the sample's image position to the projected edge, against the
+                    // wedge half-width at the sample's depth.
+                    let px = s.sub_f(u, ax);
+                    let py = s.sub_f(v, ay);
+                    let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2v), zero, one);
+                    let dx = s.fnmadd(t, abx, px);
+                    let dy = s.fnmadd(t, aby, py);
+                    let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
+                    let w = s.mul_f(rv, s.sub_f(inv_near_v, s.rcp_f(depth)));
+                    let inside =
+                        s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
+                    let local = s.add_i(lane, s.splat_i((i - base) as i32));
+                    n_selected += s.compress_store_i(&mut selected[n_selected..], inside, local);
+                    counters[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
+                    i += 16;
+                }
+            }
+            // Eq. 3 on the packed samples: gather positions, evaluate, add into the sums.
+            let mut k = 0;
+            while k < n_selected {
+                let m = s.mask_first_n(n_selected - k);
+                let idx = s.mask_load_i(s.splat_i(0), m, &selected[k..]);
+                let x = s.mask_gather_f(zero, m, xs, idx);
+                let y = s.mask_gather_f(zero, m, ys, idx);
+                let z = s.mask_gather_f(zero, m, zs, idx);
+                let term = edge_term(s, m, x, y, z, edge, self.light_radius);
+                let acc = s.mask_gather_f(zero, m, self.out, idx);
+                s.mask_scatter_f(self.out, m, idx, s.add_f(acc, term));
+                counters[2] += s.mask_popcnt(m) as u64;
+                k += 16;
+            }
+        }
+        s.end_task();
+        counters
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segment_rect_distance_cases() {
+        let (lo, hi) = (Vec2::ZERO, Vec2::ONE);
+        assert_eq!(
+            segment_rect_distance(Vec2::new(-1.0, 0.5), Vec2::new(2.0, 0.5), lo, hi),
+            0.0
+        );
+        assert!(
+            (segment_rect_distance(Vec2::new(2.0, -1.0), Vec2::new(2.0, 3.0), lo, hi) - 1.0).abs() < 1e-6
+        );
+        assert!(
+            (segment_rect_distance(Vec2::new(3.0, 3.0), Vec2::new(4.0, 4.0), lo, hi) - 8f32.sqrt()).abs()
+                < 1e-5
+        );
+        assert_eq!(
+            segment_rect_distance(Vec2::new(0.5, 0.5), Vec2::new(0.6, 0.6), lo, hi),
+            0.0
+        );
+    }
+}

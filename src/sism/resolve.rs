@@ -1,0 +1,74 @@
+//! Resolve: paper Eq. 4, `V = 1 - clamp01(depth complexity + sum of edge terms + horizon)`, written to
+//! the pixels.
+//!
+//! The horizon term is ours, not the paper's: where the light disk dips below the receiver's tangent
+//! plane, that part of the disk is hidden by the receiver's own surface (CONTRACTS.md counts it as
+//! occluded, and the reference's shadow rays see it so). In the disk's plane the tangent plane cuts a
+//! chord at distance `d = |c - p| cot(theta) / r` from the centre (theta between normal and light
+//! direction); the hidden part is the circular segment beyond it, `(acos d - d sqrt(1 - d^2)) / pi`.
+
+use sism_simd::{Kernel, Simd};
+
+use super::grid::Grid;
+use crate::frame::VisibilityImage;
+
+/// Task kind of the resolve pass in counting records.
+pub const TASK_RESOLVE: u32 = 4;
+
+/// Writes every sample's visibility into `image` (pixels without a sample keep their value).
+pub struct Resolve<'a> {
+    pub grid: &'a Grid,
+    pub umbra: &'a [i32],
+    /// Penumbra sums, or `None` for a point light (no penumbra work at all).
+    pub penumbra: Option<&'a [f32]>,
+    /// Light radius, world units (0: no horizon term).
+    pub light_radius: f32,
+    pub image: &'a mut VisibilityImage,
+}
+
+impl Kernel for Resolve<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(TASK_RESOLVE);
+        let n = self.umbra.len();
+        let zero = s.splat_f(0.0);
+        let one = s.splat_f(1.0);
+        let pixels = sism_simd::as_i32(&self.grid.samples.pixel);
+        let mut i = 0;
+        while i < n {
+            let m = s.mask_first_n(n - i);
+            let mut occlusion = s.cvt_i_f(s.mask_load_i(s.splat_i(0), m, &self.umbra[i..]));
+            if let Some(p) = self.penumbra {
+                occlusion = s.add_f(occlusion, s.mask_load_f(zero, m, &p[i..]));
+            }
+            if self.light_radius > 0.0 {
+                let smp = &self.grid.samples;
+                let x = s.mask_load_f(zero, m, &smp.x[i..]);
+                let y = s.mask_load_f(zero, m, &smp.y[i..]);
+                let z = s.mask_load_f(zero, m, &smp.z[i..]);
+                let cos = s.mask_load_f(one, m, &smp.cos_theta[i..]);
+                let dist = s.sqrt_f(s.fmadd(z, z, s.fmadd(y, y, s.mul_f(x, x))));
+                let sin = s.sqrt_f(s.max_f(s.fnmadd(cos, cos, one), zero));
+                // d = dist * cos / (sin * r), compared as d * sin * r < ... to avoid dividing by 0.
+                let num = s.mul_f(dist, cos);
+                let den = s.mul_f(sin, s.splat_f(self.light_radius));
+                let below = s.mask_and(m, s.cmp_lt_f(num, den));
+                if s.mask_any(below) {
+                    let d = s.min_f(s.div_f(num, s.select_f(below, den, one)), one);
+                    let chord = s.sqrt_f(s.max_f(s.fnmadd(d, d, one), zero));
+                    let segment = s.mul_f(
+                        s.fnmadd(d, chord, s.acos_f(d)),
+                        s.splat_f(std::f32::consts::FRAC_1_PI),
+                    );
+                    occlusion = s.add_f(occlusion, s.select_f(below, segment, zero));
+                }
+            }
+            let v = s.sub_f(one, s.clamp_f(occlusion, zero, one));
+            let px = s.mask_load_i(s.splat_i(0), m, &pixels[i..]);
+            s.mask_scatter_f(&mut self.image.values, m, px, v);
+            i += 16;
+        }
+        s.end_task();
+    }
+}

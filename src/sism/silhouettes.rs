@@ -1,0 +1,277 @@
+//! Edge adjacency, built once per scene and reused across frames, and the silhouette edges with
+//! respect to the light centre, found per frame.
+//!
+//! Which triangles count as occluders matters for Eq. 4 (depth complexity plus signed edge terms,
+//! clamped): a ray through a closed object crosses it twice, so counting every triangle would darken
+//! penumbrae twofold. Triangles of a closed, consistently oriented component count only when they face
+//! the light; triangles of open components (leaves, planes, scans with holes) always count, each being
+//! a single layer. Silhouettes follow from the counted triangles: an edge whose counted neighbours lie
+//! on the same side of it as seen from the light, or that has one counted neighbour only (open,
+//! non-manifold, or the front-facing side of a closed object's outline). Edge terms of two counted
+//! triangles on opposite sides cancel exactly, so dropping those edges is an optimisation only:
+//! correctness never depends on the adjacency being found.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::occlusion::EdgeRecord;
+use crate::scene::Scene;
+
+/// An edge and the triangles using it.
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeTopology {
+    /// Endpoints, world space.
+    pub a: Vec3,
+    pub b: Vec3,
+    /// Range into [`SceneTopology::edge_triangles`].
+    pub first: u32,
+    pub count: u32,
+}
+
+/// Triangles, their adjacency and closedness, for the whole scene.
+#[derive(Clone, Debug, Default)]
+pub struct SceneTopology {
+    /// Triangle corners, world space, in [`Scene::triangles`] order.
+    pub triangles: Vec<[Vec3; 3]>,
+    /// True for triangles of a closed, consistently oriented component.
+    pub closed: Vec<bool>,
+    /// True for a triangle whose three (welded) corners repeat an earlier triangle's, in either
+    /// winding: a coincident copy (double-sided leaves are often modelled so) adds no occlusion, but
+    /// counted twice it would double its shadow. Duplicates never count and take no part in adjacency.
+    pub duplicate: Vec<bool>,
+    /// Number of duplicates found.
+    pub duplicates: u32,
+    pub edges: Vec<EdgeTopology>,
+    /// For each edge's triangles: (triangle index, the triangle's vertex opposite the edge).
+    pub edge_triangles: Vec<(u32, Vec3)>,
+    /// Edges used by one triangle only.
+    pub open_edges: u32,
+    /// Edges used by three or more triangles.
+    pub nonmanifold_edges: u32,
+}
+
+impl SceneTopology {
+    /// Builds adjacency for every mesh of `scene`. Vertices at bit-identical positions are welded first,
+    /// so meshes that repeat vertices along seams are still connected.
+    pub fn build(scene: &Scene) -> SceneTopology {
+        let mut topo = SceneTopology::default();
+        for mesh in &scene.meshes {
+            let base = topo.triangles.len() as u32;
+            let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
+            let welded: Vec<u32> = mesh
+                .positions
+                .iter()
+                .map(|p| {
+                    let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+                    let next = weld.len() as u32;
+                    *weld.entry(key).or_insert(next)
+                })
+                .collect();
+            // (low vertex, high vertex, triangle, forward?) for every triangle edge, sorted: a run of
+            // equal keys is one edge.
+            let mut uses: Vec<(u32, u32, u32, bool, u8)> = Vec::with_capacity(mesh.triangles.len() * 3);
+            let mut seen: HashMap<[u32; 3], u32> = HashMap::new();
+            let mut duplicate = vec![false; mesh.triangles.len()];
+            for (t, tri) in mesh.triangles.iter().enumerate() {
+                let w = tri.map(|i| welded[i as usize]);
+                if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
+                    continue; // degenerate: it has no area, so it occludes nothing
+                }
+                let mut key = w;
+                key.sort_unstable();
+                if seen.insert(key, t as u32).is_some() {
+                    duplicate[t] = true;
+                    topo.duplicates += 1;
+                    continue;
+                }
+                for k in 0..3 {
+                    let (i, j) = (w[k], w[(k + 1) % 3]);
+                    uses.push((i.min(j), i.max(j), t as u32, i < j, k as u8));
+                }
+            }
+            uses.sort_unstable();
+            let n = mesh.triangles.len();
+            let mut parent: Vec<u32> = (0..n as u32).collect();
+            let mut open_component = vec![false; n];
+            let mut run = 0;
+            while run < uses.len() {
+                let mut end = run + 1;
+                while end < uses.len() && (uses[end].0, uses[end].1) == (uses[run].0, uses[run].1) {
+                    end += 1;
+                }
+                let group = &uses[run..end];
+                let (t0, k0) = (group[0].2 as usize, group[0].4 as usize);
+                let tri0 = mesh.triangles[t0];
+                let a = mesh.positions[tri0[k0] as usize];
+                let b = mesh.positions[tri0[(k0 + 1) % 3] as usize];
+                let first = topo.edge_triangles.len() as u32;
+                for &(_, _, t, _, k) in group {
+                    let tri = mesh.triangles[t as usize];
+                    let opposite = mesh.positions[tri[(k as usize + 2) % 3] as usize];
+                    topo.edge_triangles.push((base + t, opposite));
+                }
+                topo.edges.push(EdgeTopology {
+                    a,
+                    b,
+                    first,
+                    count: group.len() as u32,
+                });
+                let consistent = group.len() == 2 && group[0].3 != group[1].3;
+                if !consistent {
+                    for &(_, _, t, _, _) in group {
+                        open_component[t as usize] = true;
+                    }
+                }
+                if group.len() == 1 {
+                    topo.open_edges += 1;
+                } else if group.len() > 2 {
+                    topo.nonmanifold_edges += 1;
+                }
+                for w in group.windows(2) {
+                    union(&mut parent, w[0].2, w[1].2);
+                }
+                run = end;
+            }
+            // A component is open if any of its triangles touches an open, non-manifold or
+            // inconsistently oriented edge.
+            let mut component_open = vec![false; n];
+            for t in 0..n {
+                if open_component[t] {
+                    let root = find(&mut parent, t as u32) as usize;
+                    component_open[root] = true;
+                }
+            }
+            for t in 0..n {
+                let root = find(&mut parent, t as u32) as usize;
+                topo.closed.push(!component_open[root]);
+                topo.triangles.push(mesh.corners(t));
+                topo.duplicate.push(duplicate[t]);
+            }
+        }
+        topo
+    }
+
+    /// True when triangle `t` counts as an occluder for a light at `c` (see the module docs).
+    #[inline]
+    pub fn counts(&self, t: usize, c: Vec3) -> bool {
+        !self.duplicate[t] && (!self.closed[t] || faces_point(&self.triangles[t], c))
+    }
+
+    /// The silhouette edges with respect to the light centre `c`, as kernel records relative to `c`.
+    pub fn silhouettes(&self, c: Vec3) -> Vec<EdgeRecord> {
+        self.edges
+            .par_iter()
+            .fold(Vec::new, |mut out, e| {
+                self.edge_records(e, c, &mut out);
+                out
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    fn edge_records(&self, e: &EdgeTopology, c: Vec3, out: &mut Vec<EdgeRecord>) {
+        let tris = &self.edge_triangles[e.first as usize..(e.first + e.count) as usize];
+        let counted: Vec<Vec3> = tris
+            .iter()
+            .filter(|(t, _)| self.counts(*t as usize, c))
+            .map(|&(_, v3)| v3)
+            .collect();
+        let rel = |p: Vec3| (p - c).to_array();
+        let record = |v3: &[Vec3]| EdgeRecord {
+            a: rel(e.a),
+            b: rel(e.b),
+            v3: [rel(v3[0]), rel(*v3.get(1).unwrap_or(&v3[0]))],
+            n_tri: v3.len() as u32,
+        };
+        match (e.count, counted.len()) {
+            (_, 0) => {}
+            (2, 2) => {
+                // Same side of the edge as seen from the light: a fold, the terms add (silhouette).
+                // Opposite sides: the terms cancel, nothing to do.
+                let m = (e.a - c).cross(e.b - c);
+                if m.dot(counted[0] - c) * m.dot(counted[1] - c) >= 0.0 {
+                    out.push(record(&counted));
+                }
+            }
+            (_, _) => {
+                for v3 in &counted {
+                    out.push(record(std::slice::from_ref(v3)));
+                }
+            }
+        }
+    }
+}
+
+/// True when the front side (counter-clockwise) of `tri` faces the point `c`.
+#[inline]
+pub fn faces_point(tri: &[Vec3; 3], c: Vec3) -> bool {
+    (tri[1] - tri[0]).cross(tri[2] - tri[0]).dot(c - tri[0]) > 0.0
+}
+
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        parent[x as usize] = parent[parent[x as usize] as usize];
+        x = parent[x as usize];
+    }
+    x
+}
+
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra != rb {
+        // The smaller root wins, so the forest does not depend on visiting order.
+        let (lo, hi) = (ra.min(rb), ra.max(rb));
+        parent[hi as usize] = lo;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shapes;
+
+    fn scene_of(meshes: Vec<crate::scene::Mesh>) -> Scene {
+        Scene {
+            source: "test".into(),
+            meshes,
+            camera: crate::scene::Camera {
+                eye: [0.0, 0.0, 5.0],
+                look_at: [0.0; 3],
+                up: [0.0, 1.0, 0.0],
+                fov_y_deg: 45.0,
+                width: 8,
+                height: 8,
+            },
+            light: crate::scene::Light {
+                center: [0.0, 10.0, 0.0],
+                radius: 1.0,
+            },
+        }
+    }
+
+    #[test]
+    fn box_is_closed_and_has_a_four_edge_outline_from_above() {
+        let topo = SceneTopology::build(&scene_of(vec![shapes::axis_box("b", Vec3::ZERO, Vec3::ONE)]));
+        assert!(topo.closed.iter().all(|&c| c));
+        assert_eq!(topo.edges.len(), 18);
+        assert_eq!(topo.open_edges, 0);
+        // Light straight above: the outline is the top face's 4 edges.
+        let sil = topo.silhouettes(Vec3::new(0.5, 10.0, 0.5));
+        assert_eq!(sil.len(), 4, "{sil:?}");
+        assert!(sil.iter().all(|r| r.n_tri == 1));
+    }
+
+    #[test]
+    fn quad_is_open_and_its_border_is_the_silhouette() {
+        let q = shapes::quad("q", Vec3::ZERO, Vec3::X, Vec3::Z);
+        let topo = SceneTopology::build(&scene_of(vec![q]));
+        assert!(topo.closed.iter().all(|&c| !c));
+        // Both triangles count from either side; the diagonal cancels; 4 border edges remain.
+        assert_eq!(topo.silhouettes(Vec3::new(0.3, 5.0, 0.2)).len(), 4);
+        assert_eq!(topo.silhouettes(Vec3::new(0.3, -5.0, 0.2)).len(), 4);
+    }
+}

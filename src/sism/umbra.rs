@@ -1,0 +1,290 @@
+//! Umbra: the depth complexity between each sample and the light centre (hard irregular shadow mapping,
+//! counting every crossing instead of stopping at the first).
+//!
+//! Front end: every counted triangle (see `silhouettes`) is projected into each light face, clipped to
+//! the face's near plane, and binned by its conservative image-plane bounds into the bins whose samples
+//! it can reach (bins entirely nearer than the triangle are skipped). Back end, bin by bin: for each of
+//! the bin's triangles, the samples of the columns it covers, from the depth slice of the triangle's
+//! nearest point onward, are tested 16 at a time: inside the cone from the light centre through the
+//! triangle (three edge planes) and the triangle's plane crossed between light and sample.
+
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+
+use glam::{UVec2, Vec2, Vec3};
+use rayon::prelude::*;
+use sism_simd::{Kernel, Simd};
+
+use super::binning::{bin_items, BinLists};
+use super::grid::{FaceGrid, Grid};
+use super::light_view::LightFace;
+use super::silhouettes::SceneTopology;
+
+/// Relative tolerance on the crossing parameter: a triangle crosses the segment light -> sample when
+/// its plane is hit at `t < 1 - SELF_SHADOW_EPS` (t = 1 at the sample). It keeps a receiver from
+/// shadowing itself through f32 rounding; at 5e-5 it is 0.05 mm per metre of light distance.
+pub const SELF_SHADOW_EPS: f32 = 5e-5;
+
+/// Counters of the umbra stage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct UmbraStats {
+    /// Triangles that count as occluders (all of open components, light-facing ones of closed ones).
+    pub triangles_counted: u64,
+    /// Triangles of closed components facing away from the light: skipped.
+    pub triangles_back_facing: u64,
+    /// (face, triangle) pairs dropped: entirely behind the light, behind every sample, or outside the
+    /// face's image bounds.
+    pub face_triangles_culled: u64,
+    /// (bin, triangle) pairs after binning.
+    pub triangles_binned: u64,
+    /// (bin, triangle) pairs skipped because every sample of the bin is nearer than the triangle.
+    pub bin_pairs_culled_by_depth: u64,
+    /// Point-in-triangle tests performed (sample lanes, active).
+    pub samples_tested: u64,
+}
+
+/// Near-plane distance of a face for clipping occluders, world units: a tiny fraction of the nearest
+/// sample's depth (geometry nearer than that to the light centre is inside the light).
+#[inline]
+pub fn near_plane(g: &FaceGrid) -> f32 {
+    g.z_min * 1e-4
+}
+
+/// Image-plane bounds and nearest depth of the polygon `pts` (face coordinates) clipped to `z >= near`;
+/// `None` when nothing is in front.
+pub fn clipped_bounds(pts: &[Vec3], near: f32) -> Option<(Vec2, Vec2, f32)> {
+    let mut lo = Vec2::splat(f32::INFINITY);
+    let mut hi = Vec2::splat(f32::NEG_INFINITY);
+    let mut z_min = f32::INFINITY;
+    let mut any = false;
+    let mut add = |p: Vec3| {
+        let uv = Vec2::new(p.x / p.z, p.y / p.z);
+        lo = lo.min(uv);
+        hi = hi.max(uv);
+        z_min = z_min.min(p.z);
+        any = true;
+    };
+    let n = pts.len();
+    for i in 0..n {
+        let (p, q) = (pts[i], pts[(i + 1) % n]);
+        if p.z >= near {
+            add(p);
+        }
+        // Where the edge crosses the near plane, its crossing point bounds the clipped polygon.
+        if (p.z >= near) != (q.z >= near) {
+            let t = (near - p.z) / (q.z - p.z);
+            let mut x = p + (q - p) * t;
+            x.z = near;
+            add(x);
+        }
+    }
+    (any && lo.is_finite() && hi.is_finite()).then_some((lo, hi, z_min))
+}
+
+/// Bins of face grid `g` overlapped by the column range `[c0, c1)`, as global bin indices.
+#[inline]
+pub fn bins_of_columns(
+    g: &FaceGrid,
+    bin_columns: u32,
+    c0: UVec2,
+    c1: UVec2,
+) -> impl Iterator<Item = usize> + '_ {
+    let b0 = c0 / bin_columns;
+    let b1 = (c1 - UVec2::ONE) / bin_columns;
+    (b0.y..=b1.y).flat_map(move |by| (b0.x..=b1.x).map(move |bx| (g.first_bin + by * g.bins.x + bx) as usize))
+}
+
+/// Bins every counted triangle into the bins whose samples it may cover.
+pub fn bin_triangles(
+    topo: &SceneTopology,
+    light_center: Vec3,
+    grid: &Grid,
+    stats: &mut UmbraStats,
+) -> BinLists {
+    let counted = AtomicU64::new(0);
+    let back = AtomicU64::new(0);
+    let culled = AtomicU64::new(0);
+    let depth_culled = AtomicU64::new(0);
+    let b = grid.params.bin_columns;
+    let lists = bin_items(grid.bins.len(), topo.triangles.len(), |t, out| {
+        if !topo.counts(t as usize, light_center) {
+            back.fetch_add(1, Relaxed);
+            return;
+        }
+        counted.fetch_add(1, Relaxed);
+        let q = topo.triangles[t as usize].map(|v| v - light_center);
+        for g in grid.faces.iter().filter(|g| g.samples > 0) {
+            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, near_plane(g)) else {
+                culled.fetch_add(1, Relaxed);
+                continue;
+            };
+            let (c0, c1) = g.column_range(lo, hi);
+            if z_near >= g.z_max || c0.x >= c1.x || c0.y >= c1.y {
+                culled.fetch_add(1, Relaxed);
+                continue;
+            }
+            for bin in bins_of_columns(g, b, c0, c1) {
+                let bn = &grid.bins[bin];
+                if bn.samples.is_empty() {
+                    continue;
+                }
+                if bn.z_max <= z_near {
+                    depth_culled.fetch_add(1, Relaxed);
+                    continue;
+                }
+                out.push((bin as u32, t));
+            }
+        }
+    });
+    stats.triangles_counted += counted.into_inner();
+    stats.triangles_back_facing += back.into_inner();
+    stats.face_triangles_culled += culled.into_inner();
+    stats.bin_pairs_culled_by_depth += depth_culled.into_inner();
+    stats.triangles_binned += lists.pairs() as u64;
+    lists
+}
+
+/// Image-plane bounds and nearest depth of triangle `q` (relative to the light) in `face`.
+#[inline]
+fn face_bounds(face: &LightFace, q: &[Vec3; 3], near: f32) -> Option<(Vec2, Vec2, f32)> {
+    clipped_bounds(&q.map(|p| face.to_face(p)), near)
+}
+
+/// Splits `data` (one entry per sorted sample) into each bin's slice.
+pub fn split_by_bins<'a, T>(mut data: &'a mut [T], grid: &Grid) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(grid.bins.len());
+    for bin in &grid.bins {
+        let (head, tail) = data.split_at_mut(bin.samples.len());
+        out.push(head);
+        data = tail;
+    }
+    out
+}
+
+/// Depth complexity of every sample (sorted order), computed bin by bin.
+pub fn depth_complexity(
+    topo: &SceneTopology,
+    light_center: Vec3,
+    grid: &Grid,
+    lists: &BinLists,
+    stats: &mut UmbraStats,
+) -> Vec<i32> {
+    let mut counts = vec![0i32; grid.samples.pixel.len()];
+    let tested: u64 = split_by_bins(&mut counts, grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| !lists.of(*bin).is_empty())
+        .map(|(bin, out)| {
+            sism_simd::run_native(UmbraBin {
+                topo,
+                light_center,
+                grid,
+                bin,
+                triangles: lists.of(bin),
+                out,
+            })
+        })
+        .sum();
+    stats.samples_tested += tested;
+    counts
+}
+
+/// The per-bin umbra task.
+pub struct UmbraBin<'a> {
+    pub topo: &'a SceneTopology,
+    pub light_center: Vec3,
+    pub grid: &'a Grid,
+    pub bin: usize,
+    pub triangles: &'a [u32],
+    /// Depth complexity of the bin's samples (bin-local indices).
+    pub out: &'a mut [i32],
+}
+
+/// Task kind of umbra bins in counting records.
+pub const TASK_UMBRA_BIN: u32 = 2;
+
+impl Kernel for UmbraBin<'_> {
+    type Output = u64;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> u64 {
+        s.begin_task(TASK_UMBRA_BIN);
+        let grid = self.grid;
+        let bin = &grid.bins[self.bin];
+        let g = &grid.faces[bin.face as usize];
+        let base = bin.samples.start as usize;
+        let bin_c0 = bin.column0;
+        let bin_c1 = (bin.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
+        let samples = &grid.samples;
+        let mut tested = 0u64;
+        for &t in self.triangles {
+            let q = self.topo.triangles[t as usize].map(|v| v - self.light_center);
+            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, near_plane(g)) else {
+                continue;
+            };
+            let (c0, c1) = g.column_range(lo, hi);
+            let (c0, c1) = (c0.max(bin_c0), c1.min(bin_c1));
+            if c0.x >= c1.x || c0.y >= c1.y {
+                continue;
+            }
+            let first_slice = g.slice_of(z_near, grid.params.slices);
+            // The cone through the triangle from the light: q is inside when its three edge-plane
+            // distances share a sign. The plane n·x = k is crossed between light and sample when
+            // k / (n·q) lies in (0, 1 - eps).
+            let e = [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])];
+            let n = (q[1] - q[0]).cross(q[2] - q[0]);
+            let k = n.dot(q[0]);
+            s.scalar_ops(40);
+            if k == 0.0 {
+                continue; // the plane passes through the light centre: edge-on, covers nothing
+            }
+            let ev = e.map(|e| [s.splat_f(e.x), s.splat_f(e.y), s.splat_f(e.z)]);
+            let nv = [s.splat_f(n.x), s.splat_f(n.y), s.splat_f(n.z)];
+            let kv = s.splat_f(k);
+            let scale = s.splat_f(1.0 - SELF_SHADOW_EPS);
+            let zero = s.splat_f(0.0);
+            let one = s.splat_i(1);
+            for row in c0.y..c1.y {
+                // Columns of one bin row are contiguous in memory; from the first column's first
+                // relevant slice to the last column's end is one range (the nearer slices of the
+                // columns in between are tested too, exactly, which wastes lanes but no accuracy).
+                let start = grid
+                    .column_samples(self.bin, UVec2::new(c0.x, row), first_slice)
+                    .start;
+                let end = grid.column_samples(self.bin, UVec2::new(c1.x - 1, row), 0).end;
+                let mut i = start;
+                while i < end {
+                    let m = s.mask_first_n(end - i);
+                    let x = s.mask_load_f(zero, m, &samples.x[i..]);
+                    let y = s.mask_load_f(zero, m, &samples.y[i..]);
+                    let z = s.mask_load_f(zero, m, &samples.z[i..]);
+                    let dot3 = |v: &[S::F32; 3]| s.fmadd(v[2], z, s.fmadd(v[1], y, s.mul_f(v[0], x)));
+                    let d0 = dot3(&ev[0]);
+                    let d1 = dot3(&ev[1]);
+                    let d2 = dot3(&ev[2]);
+                    let all_pos = s.mask_and(
+                        s.cmp_ge_f(d0, zero),
+                        s.mask_and(s.cmp_ge_f(d1, zero), s.cmp_ge_f(d2, zero)),
+                    );
+                    let all_neg = s.mask_and(
+                        s.cmp_le_f(d0, zero),
+                        s.mask_and(s.cmp_le_f(d1, zero), s.cmp_le_f(d2, zero)),
+                    );
+                    let nq = s.mul_f(dot3(&nv), scale);
+                    // k and n·q of the same sign, |k| < |n·q| (1 - eps).
+                    let between = if k > 0.0 {
+                        s.cmp_lt_f(kv, nq)
+                    } else {
+                        s.cmp_gt_f(kv, nq)
+                    };
+                    let hit = s.mask_and(m, s.mask_and(between, s.mask_or(all_pos, all_neg)));
+                    let local = i - base;
+                    let cur = s.mask_load_i(s.splat_i(0), m, &self.out[local..]);
+                    s.mask_store_i(&mut self.out[local..], hit, s.add_i(cur, one));
+                    tested += s.mask_popcnt(m) as u64;
+                    i += 16;
+                }
+            }
+        }
+        s.end_task();
+        tested
+    }
+}
