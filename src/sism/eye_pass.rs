@@ -13,10 +13,13 @@
 //!    blocks of 4×4 pixels of a surviving sub-tile), then the three edge functions and the depth
 //!    `1/z` of a 4×4 block as one 16-lane vector, and a Z-buffer test keeping the larger `1/z`.
 //!    Written once against `sism_simd`, so it runs natively or under the counting context.
-//! 3. **Resolve** (rayon over bands of [`TILE`] rows): the receiver of a covered pixel is the exact
-//!    intersection of its CONTRACTS.md centre ray with the winning triangle's plane, so it matches
-//!    ray casting to float precision; the normal is the unit geometric normal flipped to face the
-//!    camera.
+//! 3. **Resolve** (the end of each tile's task, while its triangles are in cache; the tile writes its
+//!    own pixels of the output frame): the receiver of a covered pixel is the exact intersection of
+//!    its CONTRACTS.md centre ray with the winning triangle's plane, so it matches ray casting to
+//!    float precision; the normal is the unit geometric normal flipped to face the camera.
+//!
+//! The near plane is [`NEAR_PLANE_FRACTION`] of the scene's bounding-box diagonal in front of the
+//! eye: geometry closer to the eye plane than that is not seen (ray casting would see it).
 //!
 //! **Watertightness.** Each edge function is evaluated in a canonical vertex order (the endpoint with
 //! the smaller `(y, x)` first) and only then negated for the triangle's side, so the two triangles
@@ -26,6 +29,7 @@
 //! `f64` relative to the tile origin and evaluated in `f32` with two fused multiply-adds, so huge
 //! triangles (clipped close to the eye) stay accurate to a small fraction of a pixel.
 
+use std::mem::MaybeUninit;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -92,10 +96,8 @@ pub struct EyePassStats {
     pub pixels_covered: u64,
     /// Wall time of the front end (transform, clip, bin, sort).
     pub time_front_end: Duration,
-    /// Wall time of the back end (tiles).
+    /// Wall time of the back end (tiles: rasterize and resolve).
     pub time_back_end: Duration,
-    /// Wall time of the resolve (frame assembly and receivers).
-    pub time_resolve: Duration,
     /// Wall time of the whole pass.
     pub time: Duration,
 }
@@ -111,7 +113,7 @@ pub struct EyePassOutput {
     /// Counts and times.
     pub stats: EyePassStats,
     /// Under [`Exec::Counting`]: the task records, front-end chunks in chunk order, then tiles in
-    /// row-major tile order, then resolve bands top to bottom. Empty under [`Exec::Native`].
+    /// row-major tile order, each tile as a [`TASK_TILE`] record followed by its [`TASK_RESOLVE`] one. Empty under [`Exec::Native`].
     pub records: Vec<TaskRecord>,
 }
 
@@ -168,13 +170,14 @@ pub fn eye_pass_with(scene: &Scene, exec: Exec) -> EyePassOutput {
         ..EyePassStats::default()
     };
     let mut records = Vec::new();
-    // Concatenate the chunks in order and counting-sort the pairs by tile (stable: triangle order).
+    // Counting sort of the (tile, triangle) pairs by tile, chunks in order: each tile's list is in
+    // triangle order. The chunks' triangles stay where they are (a packed id names chunk and slot).
     let mut counts = vec![0u32; tile_count + 1];
-    let mut tris: Vec<ScreenTri> = Vec::new();
     for (out, recs) in &chunks {
         stats.triangles_in += out.triangles_in;
         stats.triangles_clipped += out.triangles_clipped;
         stats.triangles_culled += out.triangles_culled;
+        stats.screen_triangles += out.tris.len() as u64;
         for &(tile, _) in &out.pairs {
             counts[tile as usize + 1] += 1;
         }
@@ -185,79 +188,78 @@ pub fn eye_pass_with(scene: &Scene, exec: Exec) -> EyePassOutput {
     }
     let mut fill: Vec<u32> = counts[..tile_count].to_vec();
     let mut lists = vec![0u32; counts[tile_count] as usize];
-    for (out, _) in &chunks {
-        let base = tris.len() as u32;
+    for (c, (out, _)) in chunks.iter().enumerate() {
         for &(tile, local) in &out.pairs {
             let slot = &mut fill[tile as usize];
-            lists[*slot as usize] = base + local;
+            lists[*slot as usize] = pack_id(c, local);
             *slot += 1;
         }
-        tris.extend_from_slice(&out.tris);
     }
-    drop(chunks);
-    stats.screen_triangles = tris.len() as u64;
+    let tris = TriStore {
+        chunks: chunks.iter().map(|(out, _)| &out.tris[..]).collect(),
+    };
     stats.tile_triangle_pairs = lists.len() as u64;
     let t_back = Instant::now();
     stats.time_front_end = t_back - t_start;
 
-    // ---- Back end: one task per tile ------------------------------------------------------
-    let tiles: Vec<(Box<TileBuf>, TileCounts, Vec<TaskRecord>)> = (0..tile_count)
+    // ---- Back end: one task per tile, rasterize then resolve --------------------------------
+    // The frame's vectors are written once, in place, by the tiles (pre-filling ~30 bytes per pixel
+    // on one thread would cost as much as the resolve). Hand each tile its own row pieces.
+    let w = width as usize;
+    let n = w * height as usize;
+    let mut pixels: Vec<Option<Receiver>> = Vec::with_capacity(n);
+    let mut triangles: Vec<u32> = Vec::with_capacity(n);
+    let mut tile_rows: Vec<TileRows<'_>> = (0..tile_count).map(|_| TileRows::default()).collect();
+    for (y, (prow, trow)) in pixels.spare_capacity_mut()[..n]
+        .chunks_mut(w)
+        .zip(triangles.spare_capacity_mut()[..n].chunks_mut(w))
+        .enumerate()
+    {
+        let first = (y / TILE as usize) * tiles_x as usize;
+        for (tx, (p, t)) in prow
+            .chunks_mut(TILE as usize)
+            .zip(trow.chunks_mut(TILE as usize))
+            .enumerate()
+        {
+            tile_rows[first + tx].pixels.push(p);
+            tile_rows[first + tx].triangles.push(t);
+        }
+    }
+    let tiles: Vec<(TileCounts, Vec<TaskRecord>)> = tile_rows
         .into_par_iter()
-        .map(|t| {
+        .enumerate()
+        .map(|(t, rows)| {
             let list = &lists[counts[t] as usize..counts[t + 1] as usize];
-            let mut buf = TileBuf::new();
             let origin = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
-            let (c, recs) = run(
+            run(
                 exec,
                 TileKernel {
+                    frame: &frame,
                     tris: &tris,
                     list,
                     origin,
-                    buf: &mut buf,
-                },
-            );
-            (buf, c, recs)
-        })
-        .collect();
-    for (_, c, recs) in &tiles {
-        stats.subtiles_tested += c.subtiles_tested;
-        stats.blocks_tested += c.blocks_tested;
-        stats.blocks_full += c.blocks_full;
-        stats.depth_writes += c.depth_writes;
-        records.extend(recs.iter().cloned());
-    }
-    let t_resolve = Instant::now();
-    stats.time_back_end = t_resolve - t_back;
-
-    // ---- Resolve: one task per band of TILE rows ------------------------------------------
-    let w = width as usize;
-    let mut pixels = vec![None; w * height as usize];
-    let mut triangles = vec![NO_TRIANGLE; w * height as usize];
-    let bands: Vec<(u64, Vec<TaskRecord>)> = pixels
-        .par_chunks_mut(w * TILE as usize)
-        .zip(triangles.par_chunks_mut(w * TILE as usize))
-        .enumerate()
-        .map(|(ty, (px, ids))| {
-            let row_tiles = &tiles[ty * tiles_x as usize..(ty + 1) * tiles_x as usize];
-            run(
-                exec,
-                ResolveKernel {
-                    frame: &frame,
-                    tris: &tris,
-                    tiles: row_tiles,
-                    band: ty as u32,
-                    pixels: px,
-                    triangles: ids,
+                    rows,
                 },
             )
         })
         .collect();
-    for (covered, recs) in bands {
-        stats.pixels_covered += covered;
+    // SAFETY: every tile's kernel writes every element of every row piece it was given (each
+    // pixel, covered or not), and the row pieces partition 0..n. Had one panicked, we would not
+    // get here.
+    unsafe {
+        pixels.set_len(n);
+        triangles.set_len(n);
+    }
+    for (c, recs) in tiles {
+        stats.subtiles_tested += c.subtiles_tested;
+        stats.blocks_tested += c.blocks_tested;
+        stats.blocks_full += c.blocks_full;
+        stats.depth_writes += c.depth_writes;
+        stats.pixels_covered += c.pixels_covered;
         records.extend(recs);
     }
     let t_end = Instant::now();
-    stats.time_resolve = t_end - t_resolve;
+    stats.time_back_end = t_end - t_back;
     stats.time = t_end - t_start;
     EyePassOutput {
         receivers: Receivers {
@@ -269,6 +271,37 @@ pub fn eye_pass_with(scene: &Scene, exec: Exec) -> EyePassOutput {
         stats,
         records,
     }
+}
+
+/// Bits of a packed screen-triangle id that hold its slot in its front-end chunk (a chunk emits at
+/// most two screen triangles per scene triangle).
+const ID_SLOT_BITS: u32 = 13;
+const _: () = assert!(2 * FRONT_END_CHUNK <= 1 << ID_SLOT_BITS);
+
+/// Packed id of screen triangle `slot` of front-end chunk `chunk`; ids sort in triangle order.
+#[inline]
+fn pack_id(chunk: usize, slot: u32) -> u32 {
+    ((chunk as u32) << ID_SLOT_BITS) | slot
+}
+
+/// The screen triangles, chunk by chunk, addressed by packed id.
+struct TriStore<'a> {
+    chunks: Vec<&'a [ScreenTri]>,
+}
+
+impl TriStore<'_> {
+    #[inline(always)]
+    fn get(&self, id: u32) -> &ScreenTri {
+        &self.chunks[(id >> ID_SLOT_BITS) as usize][(id & ((1 << ID_SLOT_BITS) - 1)) as usize]
+    }
+}
+
+/// A tile's pieces of the frame: one slice of at most [`TILE`] pixels per image row of the tile,
+/// top to bottom. Uninitialised on entry; the tile writes every element.
+#[derive(Default)]
+struct TileRows<'a> {
+    pixels: Vec<&'a mut [MaybeUninit<Option<Receiver>>]>,
+    triangles: Vec<&'a mut [MaybeUninit<u32>]>,
 }
 
 /// Runs kernel `k` natively or under a fresh recorder (one per task: recorders are per thread).
@@ -498,7 +531,7 @@ impl Kernel for FrontEndKernel<'_> {
 struct TileBuf {
     /// Largest `1/z` so far, 1/world units; 0 = nothing (infinitely far).
     inv_z: [f32; TILE_PIXELS],
-    /// Winning screen-triangle index, -1 = none.
+    /// Winning screen triangle's packed id, -1 = none.
     id: [i32; TILE_PIXELS],
 }
 
@@ -523,6 +556,7 @@ struct TileCounts {
     blocks_tested: u64,
     blocks_full: u64,
     depth_writes: u64,
+    pixels_covered: u64,
 }
 
 /// One edge function of a triangle on one tile: value `a * dx + b * dy + e` at tile-local pixel
@@ -578,14 +612,16 @@ fn tile_setup(t: &ScreenTri, ox: f64, oy: f64) -> ([EdgeSetup; 3], [f32; 5]) {
     (edges, [gx as f32, gy as f32, d as f32, lo as f32, hi as f32])
 }
 
-/// Rasterizes a tile's triangle list into its [`TileBuf`].
+/// Rasterizes a tile's triangle list into a [`TileBuf`], then resolves the tile's receivers.
 struct TileKernel<'a> {
-    tris: &'a [ScreenTri],
-    /// Indices into `tris`, ascending.
+    frame: &'a CameraFrame,
+    tris: &'a TriStore<'a>,
+    /// Packed ids of the tile's triangles, ascending (triangle order).
     list: &'a [u32],
     /// Pixel position of the tile's top-left corner.
     origin: (u32, u32),
-    buf: &'a mut TileBuf,
+    /// The tile's pieces of the output frame.
+    rows: TileRows<'a>,
 }
 
 /// 16 lanes `[c(k) for k in 0..16]` as an array.
@@ -613,6 +649,7 @@ impl Kernel for TileKernel<'_> {
         s.begin_task(TASK_TILE);
         let mut counts = TileCounts::default();
         let (ox, oy) = self.origin;
+        let mut buf = TileBuf::new();
         // Lane constants: pixel-centre offsets inside a 4×4 block; centres of the sub-tiles of a
         // tile and of the blocks of a sub-tile (relative to its origin).
         let pix_x = s.from_array_f(lanes(|k| (k % 4) as f32 + 0.5));
@@ -622,7 +659,7 @@ impl Kernel for TileKernel<'_> {
         let blk_x = s.from_array_f(lanes(|k| ((k % 4) * 4) as f32 + 2.0));
         let blk_y = s.from_array_f(lanes(|k| ((k / 4) * 4) as f32 + 2.0));
         for &id in self.list {
-            let t = &self.tris[id as usize];
+            let t = self.tris.get(id);
             let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(t, ox as f64, oy as f64);
             s.scalar_ops(60);
             // Bounding box ∩ tile, tile-local inclusive pixels.
@@ -689,83 +726,69 @@ impl Kernel for TileKernel<'_> {
                     let iz = s.fmadd(s.splat_f(gx), dx, s.fmadd(s.splat_f(gy), dy, s.splat_f(gd)));
                     let iz = s.clamp_f(iz, s.splat_f(z_lo), s.splat_f(z_hi));
                     let base = TileBuf::index(bx, by);
-                    let old = s.load_f(&self.buf.inv_z[base..base + 16]);
+                    let old = s.load_f(&buf.inv_z[base..base + 16]);
                     // Strictly nearer wins: on a tie the earlier triangle (list order) stays.
                     let pass = s.mask_and(inside, s.cmp_gt_f(iz, old));
-                    s.mask_store_f(&mut self.buf.inv_z[base..base + 16], pass, iz);
-                    s.mask_store_i(&mut self.buf.id[base..base + 16], pass, s.splat_i(id as i32));
+                    s.mask_store_f(&mut buf.inv_z[base..base + 16], pass, iz);
+                    s.mask_store_i(&mut buf.id[base..base + 16], pass, s.splat_i(id as i32));
                     counts.depth_writes += s.mask_popcnt(pass) as u64;
                 }
             }
         }
         s.end_task();
+        // Resolve, while the tile's triangles are still in cache.
+        s.begin_task(TASK_RESOLVE);
+        counts.pixels_covered = resolve(s, self.frame, self.tris, &buf, self.origin, self.rows);
+        s.end_task();
         counts
     }
 }
 
-// ---------------------------------------------------------------------------------------------------
-// Resolve
-
-/// Receivers of one band of [`TILE`] image rows from its tiles' buffers.
-struct ResolveKernel<'a> {
-    frame: &'a CameraFrame,
-    tris: &'a [ScreenTri],
-    /// The band's tiles, left to right.
-    tiles: &'a [(Box<TileBuf>, TileCounts, Vec<TaskRecord>)],
-    /// Band index (tile row).
-    band: u32,
-    /// The band's pixels and per-pixel triangle indices, row-major.
-    pixels: &'a mut [Option<Receiver>],
-    triangles: &'a mut [u32],
-}
-
-impl Kernel for ResolveKernel<'_> {
-    type Output = u64;
-    #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> u64 {
-        s.begin_task(TASK_RESOLVE);
-        let f = self.frame;
-        let w = f.width as usize;
-        let mut covered = 0;
-        for (r, (row, ids)) in self
-            .pixels
-            .chunks_mut(w)
-            .zip(self.triangles.chunks_mut(w))
-            .enumerate()
-        {
-            let j = self.band * TILE + r as u32;
-            for (i, (px, tri_out)) in row.iter_mut().zip(ids.iter_mut()).enumerate() {
-                let i = i as u32;
-                let buf = &self.tiles[(i / TILE) as usize].0;
-                let k = TileBuf::index(i % TILE, r as u32);
-                let id = buf.id[k];
-                s.scalar_ops(4);
-                if id < 0 {
-                    continue;
-                }
-                let t = &self.tris[id as usize];
-                let dir = f.ray_direction(i, j);
-                let denom = t.normal.dot(dir);
-                let dist = t.normal.dot(t.point - f.eye) / denom;
-                let position = if dist.is_finite() && dist > 0.0 {
-                    f.eye + dir * dist
-                } else {
-                    // Grazing ray (plane nearly parallel to it): use the rasterized depth. The
-                    // centre ray at view depth z is eye + z * (forward + sx * right + sy * up).
-                    let sx = (2.0 * (i as f32 + 0.5) / f.width as f32 - 1.0) * f.tan_half_fov * f.aspect;
-                    let sy = (1.0 - 2.0 * (j as f32 + 0.5) / f.height as f32) * f.tan_half_fov;
-                    f.eye + (f.forward + sx * f.right + sy * f.up) / buf.inv_z[k]
-                };
-                *px = Some(Receiver {
-                    position,
-                    normal: if denom > 0.0 { -t.normal } else { t.normal },
-                });
-                *tri_out = t.original;
-                covered += 1;
-                s.scalar_ops(45);
+/// Writes the receivers of a tile's pixels from its buffer; returns the number covered. The
+/// receiver is where the pixel's CONTRACTS.md centre ray meets the winning triangle's plane.
+#[inline(always)]
+fn resolve<S: Simd>(
+    s: S,
+    f: &CameraFrame,
+    tris: &TriStore<'_>,
+    buf: &TileBuf,
+    (ox, oy): (u32, u32),
+    rows: TileRows<'_>,
+) -> u64 {
+    let mut covered = 0;
+    for (r, (row, ids)) in rows.pixels.into_iter().zip(rows.triangles).enumerate() {
+        let j = oy + r as u32;
+        for (c, (px, tri_out)) in row.iter_mut().zip(ids.iter_mut()).enumerate() {
+            let i = ox + c as u32;
+            let k = TileBuf::index(c as u32, r as u32);
+            let id = buf.id[k];
+            s.scalar_ops(4);
+            if id < 0 {
+                px.write(None);
+                tri_out.write(NO_TRIANGLE);
+                continue;
             }
+            let t = tris.get(id as u32);
+            let dir = f.ray_direction(i, j);
+            let denom = t.normal.dot(dir);
+            let dist = t.normal.dot(t.point - f.eye) / denom;
+            let position = if dist.is_finite() && dist > 0.0 {
+                f.eye + dir * dist
+            } else {
+                // Grazing ray (plane nearly parallel to it): use the rasterized depth. The centre
+                // ray at view depth z is eye + z * (forward + sx * right + sy * up).
+                let sx = (2.0 * (i as f32 + 0.5) / f.width as f32 - 1.0) * f.tan_half_fov * f.aspect;
+                let sy = (1.0 - 2.0 * (j as f32 + 0.5) / f.height as f32) * f.tan_half_fov;
+                f.eye + (f.forward + sx * f.right + sy * f.up) / buf.inv_z[k]
+            };
+            px.write(Some(Receiver {
+                position,
+                normal: if denom > 0.0 { -t.normal } else { t.normal },
+            }));
+            tri_out.write(t.original);
+            covered += 1;
+            s.scalar_ops(45);
         }
-        s.end_task();
-        covered
     }
+    covered
 }
