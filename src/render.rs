@@ -17,8 +17,11 @@ use crate::sism;
 pub enum Algorithm {
     /// Ray-traced reference: stratified light-disk samples, one shadow ray each.
     Reference,
-    /// Soft irregular shadow mapping (Johnson et al. 2009) on the 16-wide kernels, run natively.
+    /// Soft irregular shadow mapping (Johnson et al. 2009) on the 16-wide kernels, run natively, with
+    /// the paper's additive composition (Eq. 4, C = 0).
     Sism,
+    /// SISM with connected components composed as independent occluders instead of added.
+    SismIndependent,
     /// Ray-traced SISM model without its projection approximation: occluders' coverages added as if
     /// they never overlapped (the paper's C = 0). For attributing SISM's error.
     ReferenceAdditive,
@@ -30,6 +33,7 @@ impl Algorithm {
         match self {
             Algorithm::Reference => "reference",
             Algorithm::Sism => "sism",
+            Algorithm::SismIndependent => "sism-independent",
             Algorithm::ReferenceAdditive => "reference-additive",
         }
     }
@@ -66,9 +70,17 @@ pub fn render(scene: &Scene, algorithm: Algorithm, reference_options: &Reference
 
     let t0 = Instant::now();
     let (receivers, visibility) = match algorithm {
-        Algorithm::Sism => {
+        Algorithm::Sism | Algorithm::SismIndependent => {
             let prepared = sism::PreparedScene::new(scene);
-            let frame = sism::render_frame(scene, &prepared, &sism::SismOptions::default());
+            let options = sism::SismOptions {
+                composition: if algorithm == Algorithm::Sism {
+                    sism::Composition::Additive
+                } else {
+                    sism::Composition::Independent
+                },
+                ..Default::default()
+            };
+            let frame = sism::render_frame(scene, &prepared, &options);
             stats
                 .fact("simd_backend", format!("{:?}", sism_simd::selected_backend()))
                 .stat(

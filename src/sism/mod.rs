@@ -8,6 +8,7 @@
 pub mod binning;
 pub mod eye_pass;
 pub mod grid;
+pub mod independent;
 pub mod light_view;
 pub mod occlusion;
 pub mod penumbra;
@@ -47,10 +48,21 @@ impl PreparedScene {
     }
 }
 
+/// How the occluders' coverages combine at a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Composition {
+    /// The paper's Eq. 4: coverages added, as if occluders never overlapped (C = 0).
+    #[default]
+    Additive,
+    /// Connected components as independent occluders: `V = prod (1 - coverage_k)` (see `independent`).
+    Independent,
+}
+
 /// Settings of the SISM algorithm.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SismOptions {
     pub grid: GridParams,
+    pub composition: Composition,
 }
 
 /// Host wall time of each phase.
@@ -126,33 +138,64 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     let t = Instant::now();
     let topo = &prepared.topology;
     let triangle_lists = umbra::bin_triangles(topo, c, &grid, &mut stats.umbra);
-    let depth = umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra);
     stats.times.umbra = t.elapsed();
 
-    // A point light has no penumbra: no silhouette or penumbra work at all.
-    let penumbra = (light.radius > 0.0).then(|| {
+    let (edges, edge_components) = if light.radius > 0.0 {
         let t = Instant::now();
-        let edges = topo.silhouettes(c);
+        let silhouettes = topo.silhouettes_with_components(c);
         stats.times.silhouettes = t.elapsed();
-        let t = Instant::now();
-        let quad_lists = penumbra::bin_quads(&edges, light.radius, &widen, &grid, &mut stats.penumbra);
-        let sums = penumbra::occlusion(
-            &edges,
-            light.radius,
-            &widen,
-            &grid,
-            &quad_lists,
-            &mut stats.penumbra,
-        );
-        stats.times.penumbra = t.elapsed();
-        sums
-    });
+        silhouettes
+    } else {
+        // A point light has no penumbra: no silhouette or penumbra work at all.
+        (Vec::new(), Vec::new())
+    };
+    let quad_lists =
+        |stats: &mut SismStats| penumbra::bin_quads(&edges, light.radius, &widen, &grid, &mut stats.penumbra);
+
+    let (depth, sums, visible);
+    let occlusion = match options.composition {
+        Composition::Additive => {
+            let t = Instant::now();
+            depth = umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra);
+            stats.times.umbra += t.elapsed();
+            sums = (light.radius > 0.0).then(|| {
+                let t = Instant::now();
+                let lists = quad_lists(&mut stats);
+                let sums =
+                    penumbra::occlusion(&edges, light.radius, &widen, &grid, &lists, &mut stats.penumbra);
+                stats.times.penumbra = t.elapsed();
+                sums
+            });
+            resolve::Occlusion::Additive {
+                umbra: &depth,
+                penumbra: sums.as_deref(),
+            }
+        }
+        Composition::Independent => {
+            // Umbra and penumbra fuse into one pass per bin; its time is reported as penumbra.
+            let t = Instant::now();
+            let lists = quad_lists(&mut stats);
+            let inputs = independent::Inputs {
+                topo,
+                light_center: c,
+                light_radius: light.radius,
+                grid: &grid,
+                triangle_lists: &triangle_lists,
+                edges: &edges,
+                edge_components: &edge_components,
+                quad_lists: &lists,
+                widen: &widen,
+            };
+            visible = independent::visible_fraction(&inputs, &mut stats.umbra, &mut stats.penumbra);
+            stats.times.penumbra = t.elapsed();
+            resolve::Occlusion::Visible(&visible)
+        }
+    };
 
     let t = Instant::now();
     sism_simd::run_native(resolve::Resolve {
         grid: &grid,
-        umbra: &depth,
-        penumbra: penumbra.as_deref(),
+        occlusion,
         light_radius: light.radius,
         image: &mut visibility,
     });

@@ -19,7 +19,7 @@ use sism_simd::{Kernel, Simd};
 use super::binning::{bin_items, BinLists};
 use super::grid::{FaceGrid, Grid};
 use super::occlusion::{edge_term, EdgeRecord};
-use super::umbra::{bins_of_columns, near_plane, split_by_bins};
+use super::umbra::{bins_of_columns, near_plane, row_span, split_by_bins};
 
 /// Counters of the penumbra stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -225,116 +225,194 @@ pub struct PenumbraBin<'a> {
     pub out: &'a mut [f32],
 }
 
+/// A penumbra quad prepared for the samples of one bin.
+#[derive(Clone, Copy, Debug)]
+pub struct QuadInBin {
+    /// Columns of the bin it may reach, `[c0, c1)`.
+    pub c0: UVec2,
+    pub c1: UVec2,
+    /// Projected (clipped) edge: endpoint `a`, direction `ab`, `1 / |ab|^2` (0 for a point).
+    pub a: Vec2,
+    pub b: Vec2,
+    pub inv_len2: f32,
+    /// `1 / z` of the edge's nearest point.
+    pub inv_near: f32,
+    /// Widened light radius `r'`, with a hair of slack for f32 rounding.
+    pub r: f32,
+}
+
+/// Prepares edge `e`'s quad for bin `bin` of a face widened by `widen`; `None` when it misses.
+#[inline]
+pub fn quad_in_bin(
+    grid: &Grid,
+    bin: usize,
+    e: &EdgeRecord,
+    light_radius: f32,
+    widen: f32,
+) -> Option<QuadInBin> {
+    let bn = &grid.bins[bin];
+    let g = &grid.faces[bn.face as usize];
+    let qg = quad_geometry(g, e)?;
+    let r = light_radius * widen * (1.0 + 1e-4);
+    let inv_near = 1.0 / qg.z_near;
+    let w_bin = r * (inv_near - 1.0 / bn.z_max);
+    let (c0, c1) = g.column_range(qg.a.min(qg.b) - w_bin, qg.a.max(qg.b) + w_bin);
+    let bin_c1 = (bn.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
+    let (c0, c1) = (c0.max(bn.column0), c1.min(bin_c1));
+    let ab = qg.b - qg.a;
+    (c0.x < c1.x && c0.y < c1.y).then(|| QuadInBin {
+        c0,
+        c1,
+        a: qg.a,
+        b: qg.b,
+        inv_len2: if ab.length_squared() > 0.0 {
+            1.0 / ab.length_squared()
+        } else {
+            0.0
+        },
+        inv_near,
+        r,
+    })
+}
+
+/// Packs into `selected` (bin-local indices, by compress-store) the bin's samples inside quad `q`'s
+/// wedge: rows the wedge misses are skipped, then slices nearer than where it enters the row, then
+/// each sample is tested exactly against the wedge half-width at its depth. Returns how many were
+/// packed; adds `[rows culled, samples culled]` into `culled`.
+#[inline(always)]
+pub fn select_in_wedge<S: Simd>(
+    s: S,
+    grid: &Grid,
+    bin: usize,
+    q: &QuadInBin,
+    selected: &mut [i32],
+    culled: &mut [u64; 2],
+) -> usize {
+    let bn = &grid.bins[bin];
+    let g = &grid.faces[bn.face as usize];
+    let base = bn.samples.start as usize;
+    let smp = &grid.samples;
+    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
+    let ab = q.b - q.a;
+    let (ax, ay, abx, aby) = (
+        s.splat_f(q.a.x),
+        s.splat_f(q.a.y),
+        s.splat_f(ab.x),
+        s.splat_f(ab.y),
+    );
+    let (inv_len2, inv_near, rv) = (s.splat_f(q.inv_len2), s.splat_f(q.inv_near), s.splat_f(q.r));
+    let lane = s.index_i();
+    let mut n = 0usize;
+    for row in q.c0.y..q.c1.y {
+        // Wedge test for the row (Section 2.5): where the wedge enters it in depth.
+        let lo = g.uv_min + UVec2::new(q.c0.x, row).as_vec2() * g.cell_size;
+        let hi = g.uv_min + UVec2::new(q.c1.x, row + 1).as_vec2() * g.cell_size;
+        let d = segment_rect_distance(q.a, q.b, lo, hi);
+        let (first, end) = row_span(grid, bin, q.c0, q.c1, row, 0);
+        let inv_enter = q.inv_near - d / q.r;
+        s.scalar_ops(40);
+        if inv_enter <= 1.0 / bn.z_max {
+            culled[0] += 1;
+            culled[1] += (end - first) as u64;
+            continue;
+        }
+        let (start, _) = row_span(
+            grid,
+            bin,
+            q.c0,
+            q.c1,
+            row,
+            g.slice_of(1.0 / inv_enter, grid.params.slices),
+        );
+        culled[1] += (start - first) as u64;
+        let mut i = start;
+        while i < end {
+            let m = s.mask_first_n(end - i);
+            let u = s.mask_load_f(zero, m, &smp.u[i..]);
+            let v = s.mask_load_f(zero, m, &smp.v[i..]);
+            let depth = s.mask_load_f(one, m, &smp.depth[i..]);
+            // Distance from the sample's image position to the projected edge, against the wedge
+            // half-width at the sample's depth.
+            let px = s.sub_f(u, ax);
+            let py = s.sub_f(v, ay);
+            let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2), zero, one);
+            let dx = s.fnmadd(t, abx, px);
+            let dy = s.fnmadd(t, aby, py);
+            let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
+            let w = s.mul_f(rv, s.sub_f(inv_near, s.rcp_f(depth)));
+            let inside = s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
+            let local = s.add_i(lane, s.splat_i((i - base) as i32));
+            n += s.compress_store_i(&mut selected[n..], inside, local);
+            culled[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
+            i += 16;
+        }
+    }
+    n
+}
+
+/// Eq. 3 on packed samples: gathers the positions of `selected[..n]` (bin-local indices into `xs`,
+/// `ys`, `zs`), evaluates edge `e`'s signed term, and adds it into `out` at the same indices.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn add_edge_terms<S: Simd>(
+    s: S,
+    selected: &[i32],
+    n: usize,
+    (xs, ys, zs): (&[f32], &[f32], &[f32]),
+    e: &EdgeRecord,
+    light_radius: f32,
+    out: &mut [f32],
+) {
+    let zero = s.splat_f(0.0);
+    let mut k = 0;
+    while k < n {
+        let m = s.mask_first_n(n - k);
+        let idx = s.mask_load_i(s.splat_i(0), m, &selected[k..]);
+        let x = s.mask_gather_f(zero, m, xs, idx);
+        let y = s.mask_gather_f(zero, m, ys, idx);
+        let z = s.mask_gather_f(zero, m, zs, idx);
+        let term = edge_term(s, m, x, y, z, e, light_radius);
+        let acc = s.mask_gather_f(zero, m, out, idx);
+        s.mask_scatter_f(out, m, idx, s.add_f(acc, term));
+        k += 16;
+    }
+}
+
+/// The bin's sample positions (relative to the light centre) as slices indexed bin-locally.
+#[inline]
+pub fn bin_positions(grid: &Grid, bin: usize) -> (&[f32], &[f32], &[f32]) {
+    let r = grid.bins[bin].samples.start as usize..grid.bins[bin].samples.end as usize;
+    (
+        &grid.samples.x[r.clone()],
+        &grid.samples.y[r.clone()],
+        &grid.samples.z[r],
+    )
+}
+
 impl Kernel for PenumbraBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]`.
     type Output = [u64; 3];
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> [u64; 3] {
         s.begin_task(TASK_PENUMBRA_BIN);
-        let grid = self.grid;
-        let bin = &grid.bins[self.bin];
-        let g = &grid.faces[bin.face as usize];
-        let base = bin.samples.start as usize;
-        let end_of_bin = bin.samples.end as usize;
-        let bin_c1 = (bin.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
-        // A hair of slack keeps the per-sample test conservative under f32 rounding.
-        let r = self.light_radius * self.widen * (1.0 + 1e-4);
-        let smp = &grid.samples;
-        let (xs, ys, zs) = (
-            &smp.x[base..end_of_bin],
-            &smp.y[base..end_of_bin],
-            &smp.z[base..end_of_bin],
-        );
-        let zero = s.splat_f(0.0);
-        let one = s.splat_f(1.0);
-        let lane = s.index_i();
+        let positions = bin_positions(self.grid, self.bin);
         // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
         // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
-        let mut selected = vec![0i32; bin.samples.len() + 16];
-        let mut counters = [0u64; 3];
+        let mut selected = vec![0i32; positions.0.len() + 16];
+        let mut culled = [0u64; 2];
+        let mut evaluated = 0u64;
         for &e in self.quads {
             let edge = &self.edges[e as usize];
-            let Some(qg) = quad_geometry(g, edge) else {
+            s.scalar_ops(60);
+            let Some(q) = quad_in_bin(self.grid, self.bin, edge, self.light_radius, self.widen) else {
                 continue;
             };
-            let inv_near = 1.0 / qg.z_near;
-            let w_bin = r * (inv_near - 1.0 / bin.z_max);
-            let (c0, c1) = g.column_range(qg.a.min(qg.b) - w_bin, qg.a.max(qg.b) + w_bin);
-            let (c0, c1) = (c0.max(bin.column0), c1.min(bin_c1));
-            let ab = qg.b - qg.a;
-            let inv_len2 = if ab.length_squared() > 0.0 {
-                1.0 / ab.length_squared()
-            } else {
-                0.0
-            };
-            let (ax, ay, abx, aby) = (
-                s.splat_f(qg.a.x),
-                s.splat_f(qg.a.y),
-                s.splat_f(ab.x),
-                s.splat_f(ab.y),
-            );
-            let (inv_len2v, inv_near_v, rv) = (s.splat_f(inv_len2), s.splat_f(inv_near), s.splat_f(r));
-            let mut n_selected = 0usize;
-            for row in c0.y..c1.y {
-                // Wedge test for the row of columns: where the wedge enters it in depth (Section 2.5);
-                // nearer slices of its first column are skipped, then each sample is tested exactly.
-                let lo = g.uv_min + UVec2::new(c0.x, row).as_vec2() * g.cell_size;
-                let hi = g.uv_min + UVec2::new(c1.x, row + 1).as_vec2() * g.cell_size;
-                let d = segment_rect_distance(qg.a, qg.b, lo, hi);
-                let first = grid.column_samples(self.bin, UVec2::new(c0.x, row), 0).start;
-                let end = grid.column_samples(self.bin, UVec2::new(c1.x - 1, row), 0).end;
-                let inv_enter = inv_near - d / r;
-                s.scalar_ops(40);
-                if inv_enter <= 1.0 / bin.z_max {
-                    counters[0] += 1;
-                    counters[1] += (end - first) as u64;
-                    continue;
-                }
-                let first_slice = g.slice_of(1.0 / inv_enter, grid.params.slices);
-                let start = grid
-                    .column_samples(self.bin, UVec2::new(c0.x, row), first_slice)
-                    .start;
-                counters[1] += (start - first) as u64;
-                let mut i = start;
-                while i < end {
-                    let m = s.mask_first_n(end - i);
-                    let u = s.mask_load_f(zero, m, &smp.u[i..]);
-                    let v = s.mask_load_f(zero, m, &smp.v[i..]);
-                    let depth = s.mask_load_f(one, m, &smp.depth[i..]);
-                    // Distance from the sample's image position to the projected edge, against the
-                    // wedge half-width at the sample's depth.
-                    let px = s.sub_f(u, ax);
-                    let py = s.sub_f(v, ay);
-                    let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2v), zero, one);
-                    let dx = s.fnmadd(t, abx, px);
-                    let dy = s.fnmadd(t, aby, py);
-                    let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
-                    let w = s.mul_f(rv, s.sub_f(inv_near_v, s.rcp_f(depth)));
-                    let inside =
-                        s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
-                    let local = s.add_i(lane, s.splat_i((i - base) as i32));
-                    n_selected += s.compress_store_i(&mut selected[n_selected..], inside, local);
-                    counters[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
-                    i += 16;
-                }
-            }
-            // Eq. 3 on the packed samples: gather positions, evaluate, add into the sums.
-            let mut k = 0;
-            while k < n_selected {
-                let m = s.mask_first_n(n_selected - k);
-                let idx = s.mask_load_i(s.splat_i(0), m, &selected[k..]);
-                let x = s.mask_gather_f(zero, m, xs, idx);
-                let y = s.mask_gather_f(zero, m, ys, idx);
-                let z = s.mask_gather_f(zero, m, zs, idx);
-                let term = edge_term(s, m, x, y, z, edge, self.light_radius);
-                let acc = s.mask_gather_f(zero, m, self.out, idx);
-                s.mask_scatter_f(self.out, m, idx, s.add_f(acc, term));
-                counters[2] += s.mask_popcnt(m) as u64;
-                k += 16;
-            }
+            let n = select_in_wedge(s, self.grid, self.bin, &q, &mut selected, &mut culled);
+            add_edge_terms(s, &selected, n, positions, edge, self.light_radius, self.out);
+            evaluated += n as u64;
         }
         s.end_task();
-        counters
+        [culled[0], culled[1], evaluated]
     }
 }
 

@@ -15,12 +15,24 @@ use crate::frame::VisibilityImage;
 /// Task kind of the resolve pass in counting records.
 pub const TASK_RESOLVE: u32 = 4;
 
+/// The occlusion a frame has computed, per sample (sorted order).
+#[derive(Clone, Copy)]
+pub enum Occlusion<'a> {
+    /// Eq. 4: depth complexity and, unless the light is a point, penumbra sums; `V = 1 - clamp01(sum)`.
+    Additive {
+        umbra: &'a [i32],
+        penumbra: Option<&'a [f32]>,
+    },
+    /// Independent occluders (see `independent`): the visible fraction so far, multiplied by the
+    /// horizon's.
+    Visible(&'a [f32]),
+}
+
 /// Writes every sample's visibility into `image` (pixels without a sample keep their value).
 pub struct Resolve<'a> {
     pub grid: &'a Grid,
-    pub umbra: &'a [i32],
-    /// Penumbra sums, or `None` for a point light (no penumbra work at all).
-    pub penumbra: Option<&'a [f32]>,
+    /// Composition of the occluders' coverages.
+    pub occlusion: Occlusion<'a>,
     /// Light radius, world units (0: no horizon term).
     pub light_radius: f32,
     pub image: &'a mut VisibilityImage,
@@ -31,16 +43,19 @@ impl Kernel for Resolve<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
         s.begin_task(TASK_RESOLVE);
-        let n = self.umbra.len();
+        let n = self.grid.samples.pixel.len();
         let zero = s.splat_f(0.0);
         let one = s.splat_f(1.0);
         let pixels = sism_simd::as_i32(&self.grid.samples.pixel);
         let mut i = 0;
         while i < n {
             let m = s.mask_first_n(n - i);
-            let mut occlusion = s.cvt_i_f(s.mask_load_i(s.splat_i(0), m, &self.umbra[i..]));
-            if let Some(p) = self.penumbra {
-                occlusion = s.add_f(occlusion, s.mask_load_f(zero, m, &p[i..]));
+            let mut occlusion = zero;
+            if let Occlusion::Additive { umbra, penumbra } = self.occlusion {
+                occlusion = s.cvt_i_f(s.mask_load_i(s.splat_i(0), m, &umbra[i..]));
+                if let Some(p) = penumbra {
+                    occlusion = s.add_f(occlusion, s.mask_load_f(zero, m, &p[i..]));
+                }
             }
             if self.light_radius > 0.0 {
                 let smp = &self.grid.samples;
@@ -64,7 +79,11 @@ impl Kernel for Resolve<'_> {
                     occlusion = s.add_f(occlusion, s.select_f(below, segment, zero));
                 }
             }
-            let v = s.sub_f(one, s.clamp_f(occlusion, zero, one));
+            let mut v = s.sub_f(one, s.clamp_f(occlusion, zero, one));
+            if let Occlusion::Visible(visible) = self.occlusion {
+                // Here `occlusion` holds the horizon alone: one more independent occluder.
+                v = s.mul_f(v, s.mask_load_f(one, m, &visible[i..]));
+            }
             let px = s.mask_load_i(s.splat_i(0), m, &pixels[i..]);
             s.mask_scatter_f(&mut self.image.values, m, px, v);
             i += 16;

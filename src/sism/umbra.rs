@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, Mask16, Simd};
 
 use super::binning::{bin_items, BinLists};
 use super::grid::{FaceGrid, Grid};
@@ -202,80 +202,126 @@ pub struct UmbraBin<'a> {
 /// Task kind of umbra bins in counting records.
 pub const TASK_UMBRA_BIN: u32 = 2;
 
+/// A triangle prepared for testing the samples of one bin.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleInBin {
+    /// Columns of the bin it may cover, `[c0, c1)`.
+    pub c0: UVec2,
+    pub c1: UVec2,
+    /// First depth slice that can lie behind it.
+    pub first_slice: u32,
+    /// Edge-plane normals of the cone from the light centre through the triangle.
+    pub edge_planes: [Vec3; 3],
+    /// Plane `n · x = k` of the triangle (relative to the light centre); `k != 0`.
+    pub n: Vec3,
+    pub k: f32,
+}
+
+/// Prepares triangle `q` (corners relative to the light centre) for bin `bin`; `None` when it
+/// covers none of the bin's columns or is edge-on from the light.
+#[inline]
+pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<TriangleInBin> {
+    let b = &grid.bins[bin];
+    let g = &grid.faces[b.face as usize];
+    let (lo, hi, z_near) = face_bounds(&g.face, q, near_plane(g))?;
+    let (c0, c1) = g.column_range(lo, hi);
+    let bin_c1 = (b.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
+    let (c0, c1) = (c0.max(b.column0), c1.min(bin_c1));
+    let n = (q[1] - q[0]).cross(q[2] - q[0]);
+    let k = n.dot(q[0]);
+    // k = 0: the plane passes through the light centre; edge-on, it covers nothing.
+    (c0.x < c1.x && c0.y < c1.y && k != 0.0).then(|| TriangleInBin {
+        c0,
+        c1,
+        first_slice: g.slice_of(z_near, grid.params.slices),
+        edge_planes: [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])],
+        n,
+        k,
+    })
+}
+
+/// Lanes of `m` whose sample `(x, y, z)` (relative to the light centre) lies behind triangle `t`:
+/// inside the cone from the light through it (three edge-plane distances of one sign) and beyond its
+/// plane, `k / (n·q)` in `(0, 1 - SELF_SHADOW_EPS)`.
+#[inline(always)]
+pub fn covered<S: Simd>(s: S, t: &TriangleInBin, m: Mask16, x: S::F32, y: S::F32, z: S::F32) -> Mask16 {
+    let zero = s.splat_f(0.0);
+    let ep = &t.edge_planes;
+    let d0 = s.fmadd(
+        s.splat_f(ep[0].z),
+        z,
+        s.fmadd(s.splat_f(ep[0].y), y, s.mul_f(s.splat_f(ep[0].x), x)),
+    );
+    let d1 = s.fmadd(
+        s.splat_f(ep[1].z),
+        z,
+        s.fmadd(s.splat_f(ep[1].y), y, s.mul_f(s.splat_f(ep[1].x), x)),
+    );
+    let d2 = s.fmadd(
+        s.splat_f(ep[2].z),
+        z,
+        s.fmadd(s.splat_f(ep[2].y), y, s.mul_f(s.splat_f(ep[2].x), x)),
+    );
+    let all_pos = s.mask_and(
+        s.cmp_ge_f(d0, zero),
+        s.mask_and(s.cmp_ge_f(d1, zero), s.cmp_ge_f(d2, zero)),
+    );
+    let all_neg = s.mask_and(
+        s.cmp_le_f(d0, zero),
+        s.mask_and(s.cmp_le_f(d1, zero), s.cmp_le_f(d2, zero)),
+    );
+    let nq = s.fmadd(
+        s.splat_f(t.n.z),
+        z,
+        s.fmadd(s.splat_f(t.n.y), y, s.mul_f(s.splat_f(t.n.x), x)),
+    );
+    let nq = s.mul_f(nq, s.splat_f(1.0 - SELF_SHADOW_EPS));
+    let kv = s.splat_f(t.k);
+    // k and n·q of the same sign, |k| < |n·q| (1 - eps).
+    let between = if t.k > 0.0 {
+        s.cmp_lt_f(kv, nq)
+    } else {
+        s.cmp_gt_f(kv, nq)
+    };
+    s.mask_and(m, s.mask_and(between, s.mask_or(all_pos, all_neg)))
+}
+
+/// Sample range of row `row` of a triangle's columns: from its first column's first relevant slice to
+/// its last column's end. Columns of one bin row are contiguous in memory, so this is one range; the
+/// nearer slices of the columns in between are tested too (exactly: lanes wasted, not accuracy).
+#[inline]
+pub fn row_span(grid: &Grid, bin: usize, c0: UVec2, c1: UVec2, row: u32, first_slice: u32) -> (usize, usize) {
+    let start = grid.column_samples(bin, UVec2::new(c0.x, row), first_slice).start;
+    let end = grid.column_samples(bin, UVec2::new(c1.x - 1, row), 0).end;
+    (start, end)
+}
+
 impl Kernel for UmbraBin<'_> {
     type Output = u64;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> u64 {
         s.begin_task(TASK_UMBRA_BIN);
         let grid = self.grid;
-        let bin = &grid.bins[self.bin];
-        let g = &grid.faces[bin.face as usize];
-        let base = bin.samples.start as usize;
-        let bin_c0 = bin.column0;
-        let bin_c1 = (bin.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
+        let base = grid.bins[self.bin].samples.start as usize;
         let samples = &grid.samples;
+        let zero = s.splat_f(0.0);
+        let one = s.splat_i(1);
         let mut tested = 0u64;
         for &t in self.triangles {
             let q = self.topo.triangles[t as usize].map(|v| v - self.light_center);
-            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, near_plane(g)) else {
+            s.scalar_ops(60);
+            let Some(tri) = triangle_in_bin(grid, self.bin, &q) else {
                 continue;
             };
-            let (c0, c1) = g.column_range(lo, hi);
-            let (c0, c1) = (c0.max(bin_c0), c1.min(bin_c1));
-            if c0.x >= c1.x || c0.y >= c1.y {
-                continue;
-            }
-            let first_slice = g.slice_of(z_near, grid.params.slices);
-            // The cone through the triangle from the light: q is inside when its three edge-plane
-            // distances share a sign. The plane n·x = k is crossed between light and sample when
-            // k / (n·q) lies in (0, 1 - eps).
-            let e = [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])];
-            let n = (q[1] - q[0]).cross(q[2] - q[0]);
-            let k = n.dot(q[0]);
-            s.scalar_ops(40);
-            if k == 0.0 {
-                continue; // the plane passes through the light centre: edge-on, covers nothing
-            }
-            let ev = e.map(|e| [s.splat_f(e.x), s.splat_f(e.y), s.splat_f(e.z)]);
-            let nv = [s.splat_f(n.x), s.splat_f(n.y), s.splat_f(n.z)];
-            let kv = s.splat_f(k);
-            let scale = s.splat_f(1.0 - SELF_SHADOW_EPS);
-            let zero = s.splat_f(0.0);
-            let one = s.splat_i(1);
-            for row in c0.y..c1.y {
-                // Columns of one bin row are contiguous in memory; from the first column's first
-                // relevant slice to the last column's end is one range (the nearer slices of the
-                // columns in between are tested too, exactly, which wastes lanes but no accuracy).
-                let start = grid
-                    .column_samples(self.bin, UVec2::new(c0.x, row), first_slice)
-                    .start;
-                let end = grid.column_samples(self.bin, UVec2::new(c1.x - 1, row), 0).end;
+            for row in tri.c0.y..tri.c1.y {
+                let (start, end) = row_span(grid, self.bin, tri.c0, tri.c1, row, tri.first_slice);
                 let mut i = start;
                 while i < end {
                     let m = s.mask_first_n(end - i);
                     let x = s.mask_load_f(zero, m, &samples.x[i..]);
                     let y = s.mask_load_f(zero, m, &samples.y[i..]);
                     let z = s.mask_load_f(zero, m, &samples.z[i..]);
-                    let dot3 = |v: &[S::F32; 3]| s.fmadd(v[2], z, s.fmadd(v[1], y, s.mul_f(v[0], x)));
-                    let d0 = dot3(&ev[0]);
-                    let d1 = dot3(&ev[1]);
-                    let d2 = dot3(&ev[2]);
-                    let all_pos = s.mask_and(
-                        s.cmp_ge_f(d0, zero),
-                        s.mask_and(s.cmp_ge_f(d1, zero), s.cmp_ge_f(d2, zero)),
-                    );
-                    let all_neg = s.mask_and(
-                        s.cmp_le_f(d0, zero),
-                        s.mask_and(s.cmp_le_f(d1, zero), s.cmp_le_f(d2, zero)),
-                    );
-                    let nq = s.mul_f(dot3(&nv), scale);
-                    // k and n·q of the same sign, |k| < |n·q| (1 - eps).
-                    let between = if k > 0.0 {
-                        s.cmp_lt_f(kv, nq)
-                    } else {
-                        s.cmp_gt_f(kv, nq)
-                    };
-                    let hit = s.mask_and(m, s.mask_and(between, s.mask_or(all_pos, all_neg)));
+                    let hit = covered(s, &tri, m, x, y, z);
                     let local = i - base;
                     let cur = s.mask_load_i(s.splat_i(0), m, &self.out[local..]);
                     s.mask_store_i(&mut self.out[local..], hit, s.add_i(cur, one));

@@ -1,0 +1,185 @@
+//! Independent-occluder composition: an alternative to Eq. 4's `C = 0` (paper Section 5.2).
+//!
+//! Eq. 4 adds the coverages of all occluders, so where partial occluders overlap in a receiver's view
+//! of the light (foliage: many leaves each hiding part of the light) their sum exceeds the union and
+//! penumbrae darken, often to black. Here each connected component of the mesh (a leaf, a branch, a
+//! whole closed object) is one occluder: its coverage `f_k` is computed exactly as in Eq. 4 (depth
+//! complexity from its triangles plus the signed terms of its silhouette edges, clamped to [0, 1]), and
+//! the occluders are composed as if independent, `V = prod_k (1 - f_k)`: the expected visible fraction
+//! when occluders are placed independently. For one occluder this equals Eq. 4; for a closed object it
+//! is exact whatever its shape.
+//!
+//! Per bin (the task), the bin's triangles and penumbra quads are merged and ordered by component;
+//! each component's coverage is accumulated at the samples it touches, then folded into the product.
+//! This fuses the umbra and penumbra passes into one per bin.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use sism_simd::{Kernel, Simd};
+
+use super::binning::BinLists;
+use super::grid::Grid;
+use super::occlusion::EdgeRecord;
+use super::penumbra::{add_edge_terms, bin_positions, quad_in_bin, select_in_wedge, PenumbraStats};
+use super::silhouettes::SceneTopology;
+use super::umbra::{covered, row_span, split_by_bins, triangle_in_bin, UmbraStats};
+
+/// Task kind of fused occlusion bins in counting records.
+pub const TASK_OCCLUSION_BIN: u32 = 5;
+
+/// Everything the fused pass reads.
+pub struct Inputs<'a> {
+    pub topo: &'a SceneTopology,
+    pub light_center: Vec3,
+    pub light_radius: f32,
+    pub grid: &'a Grid,
+    pub triangle_lists: &'a BinLists,
+    pub edges: &'a [EdgeRecord],
+    pub edge_components: &'a [u32],
+    pub quad_lists: &'a BinLists,
+    /// Per light face, `1 / cos(alpha)` for quad widths.
+    pub widen: &'a [f32],
+}
+
+/// Visible fraction of every sample (sorted order) under independent composition.
+pub fn visible_fraction(inputs: &Inputs, umbra: &mut UmbraStats, penumbra: &mut PenumbraStats) -> Vec<f32> {
+    let mut visible = vec![1f32; inputs.grid.samples.pixel.len()];
+    let counters: Vec<[u64; 4]> = split_by_bins(&mut visible, inputs.grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| {
+            !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
+        })
+        .map(|(bin, out)| sism_simd::run_native(OcclusionBin { inputs, bin, out }))
+        .collect();
+    for c in counters {
+        umbra.samples_tested += c[0];
+        penumbra.rows_culled_by_wedge += c[1];
+        penumbra.samples_culled_by_wedge += c[2];
+        penumbra.samples_evaluated += c[3];
+    }
+    visible
+}
+
+/// One bin of the fused pass.
+pub struct OcclusionBin<'a> {
+    pub inputs: &'a Inputs<'a>,
+    pub bin: usize,
+    /// Visible fraction of the bin's samples (bin-local), starting at 1.
+    pub out: &'a mut [f32],
+}
+
+impl Kernel for OcclusionBin<'_> {
+    /// `[umbra samples tested, rows culled, samples culled, samples evaluated]`.
+    type Output = [u64; 4];
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> [u64; 4] {
+        s.begin_task(TASK_OCCLUSION_BIN);
+        let inp = self.inputs;
+        let grid = inp.grid;
+        let bin = self.bin;
+        let base = grid.bins[bin].samples.start as usize;
+        let n_samples = self.out.len();
+        let positions = bin_positions(grid, bin);
+        let widen = inp.widen[grid.bins[bin].face as usize];
+
+        // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1).
+        let mut items: Vec<(u32, u8, u32)> = inp
+            .triangle_lists
+            .of(bin)
+            .iter()
+            .map(|&t| (inp.topo.component[t as usize], 0u8, t))
+            .chain(
+                inp.quad_lists
+                    .of(bin)
+                    .iter()
+                    .map(|&e| (inp.edge_components[e as usize], 1u8, e)),
+            )
+            .collect();
+        items.sort_unstable();
+        s.scalar_ops(items.len() as u64 * 8);
+
+        // Coverage of the current component at the samples it touched; `touched` lists them once each
+        // (stamp = index of the group that last listed the sample).
+        let mut coverage = vec![0f32; n_samples];
+        let mut stamp = vec![u32::MAX; n_samples];
+        let mut touched: Vec<i32> = Vec::new();
+        let mut selected = vec![0i32; n_samples + 16];
+        let mut culled = [0u64; 2];
+        let (mut tested, mut evaluated) = (0u64, 0u64);
+        let zero = s.splat_f(0.0);
+        let one_f = s.splat_f(1.0);
+        let lane = s.index_i();
+        let mut group = 0u32;
+        let mut at = 0;
+        while at < items.len() {
+            let component = items[at].0;
+            let mut end = at;
+            while end < items.len() && items[end].0 == component {
+                end += 1;
+            }
+            for &(_, kind, index) in &items[at..end] {
+                let n_hit = if kind == 0 {
+                    // Umbra: +1 coverage where the sample lies behind the triangle.
+                    let q = inp.topo.triangles[index as usize].map(|v| v - inp.light_center);
+                    let Some(tri) = triangle_in_bin(grid, bin, &q) else {
+                        continue;
+                    };
+                    let mut n = 0usize;
+                    for row in tri.c0.y..tri.c1.y {
+                        let (start, stop) = row_span(grid, bin, tri.c0, tri.c1, row, tri.first_slice);
+                        let mut i = start;
+                        while i < stop {
+                            let m = s.mask_first_n(stop - i);
+                            let local = i - base;
+                            let x = s.mask_load_f(zero, m, &positions.0[local..]);
+                            let y = s.mask_load_f(zero, m, &positions.1[local..]);
+                            let z = s.mask_load_f(zero, m, &positions.2[local..]);
+                            let hit = covered(s, &tri, m, x, y, z);
+                            let cur = s.mask_load_f(zero, m, &coverage[local..]);
+                            s.mask_store_f(&mut coverage[local..], hit, s.add_f(cur, one_f));
+                            let idx = s.add_i(lane, s.splat_i(local as i32));
+                            n += s.compress_store_i(&mut selected[n..], hit, idx);
+                            tested += s.mask_popcnt(m) as u64;
+                            i += 16;
+                        }
+                    }
+                    n
+                } else {
+                    // Penumbra: the edge's signed term at the samples inside its wedge.
+                    let edge = &inp.edges[index as usize];
+                    let Some(q) = quad_in_bin(grid, bin, edge, inp.light_radius, widen) else {
+                        continue;
+                    };
+                    let n = select_in_wedge(s, grid, bin, &q, &mut selected, &mut culled);
+                    add_edge_terms(s, &selected, n, positions, edge, inp.light_radius, &mut coverage);
+                    evaluated += n as u64;
+                    n
+                };
+                for &i in &selected[..n_hit] {
+                    if stamp[i as usize] != group {
+                        stamp[i as usize] = group;
+                        touched.push(i);
+                    }
+                }
+                s.scalar_ops(2 * n_hit as u64);
+            }
+            // Fold the component into the product: visible *= 1 - clamp01(coverage); reset coverage.
+            let mut k = 0;
+            while k < touched.len() {
+                let m = s.mask_first_n(touched.len() - k);
+                let idx = s.mask_load_i(s.splat_i(0), m, &touched[k..]);
+                let f = s.clamp_f(s.mask_gather_f(zero, m, &coverage, idx), zero, one_f);
+                let v = s.mask_gather_f(one_f, m, self.out, idx);
+                s.mask_scatter_f(self.out, m, idx, s.mul_f(v, s.sub_f(one_f, f)));
+                s.mask_scatter_f(&mut coverage, m, idx, zero);
+                k += 16;
+            }
+            touched.clear();
+            group += 1;
+            at = end;
+        }
+        s.end_task();
+        [tested, culled[0], culled[1], evaluated]
+    }
+}
