@@ -5,4 +5,5 @@ mod closed_forms;
 mod convergence;
 mod obj_loading;
 mod shared_scenes;
+mod sism;
 mod util;

@@ -1,0 +1,219 @@
+//! SISM end to end against the ray-traced reference, on the analytic plate, a room lit from inside
+//! (cube of light views), adversarial scenes and the shared meshes; work skipping and determinism.
+
+use std::path::Path;
+
+use sism::bvh::SceneBvh;
+use sism::frame::VisibilityImage;
+use sism::metrics::{compare, ErrorReport};
+use sism::reference::{self, ReferenceOptions};
+use sism::scene::Scene;
+use sism::sism::{render_frame, Composition, PreparedScene, SismFrame, SismOptions};
+
+fn load(name: &str, width: u32, height: u32) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let mut s = Scene::load(&path).unwrap();
+    s.camera.width = width;
+    s.camera.height = height;
+    s
+}
+
+fn reference(scene: &Scene, spp: u32) -> VisibilityImage {
+    let options = ReferenceOptions {
+        spp,
+        ..Default::default()
+    };
+    reference::render(scene, &SceneBvh::build(scene), &options).1
+}
+
+fn sism_frame(scene: &Scene, composition: Composition) -> SismFrame {
+    let options = SismOptions {
+        composition,
+        ..Default::default()
+    };
+    render_frame(scene, &PreparedScene::new(scene), &options)
+}
+
+fn score(scene: &Scene, spp: u32, composition: Composition) -> (ErrorReport, SismFrame) {
+    let frame = sism_frame(scene, composition);
+    let report = compare(&reference(scene, spp), &frame.visibility).unwrap();
+    (report, frame)
+}
+
+#[test]
+fn plate_matches_the_reference() {
+    let scene = load("plate.toml", 320, 240);
+    let (r, frame) = score(&scene, 1024, Composition::Additive);
+    eprintln!("plate: {r:?}");
+    assert!(r.compared > 50_000);
+    assert!(r.penumbra_pixels > 2_000, "the view shows the penumbra");
+    assert!(r.mae <= 0.005, "MAE {}", r.mae);
+    assert!(r.p99 <= 0.05, "p99 {}", r.p99);
+    // One occluder: both compositions agree.
+    let independent = sism_frame(&scene, Composition::Independent);
+    let d = compare(&frame.visibility, &independent.visibility).unwrap();
+    assert!(d.max < 1e-5, "{d:?}");
+}
+
+#[test]
+fn point_light_gives_hard_shadows_and_skips_all_penumbra_work() {
+    let mut scene = load("plate.toml", 320, 240);
+    scene.light.radius = 0.0;
+    let (r, frame) = score(&scene, 1, Composition::Additive);
+    eprintln!("plate, point light: {r:?}");
+    assert!(r.mae <= 0.002, "MAE {}", r.mae);
+    let p = &frame.stats.penumbra;
+    assert_eq!(
+        (p.silhouettes, p.quads, p.quad_bin_pairs, p.samples_evaluated),
+        (0, 0, 0, 0)
+    );
+    assert!(frame.stats.umbra.samples_tested > 0);
+}
+
+#[test]
+fn room_lit_from_inside_uses_a_cube_and_matches() {
+    let scene = load("room.toml", 192, 192);
+    let (r, frame) = score(&scene, 256, Composition::Additive);
+    eprintln!("room: {r:?}");
+    assert_eq!(frame.stats.light_faces, 6);
+    assert!(r.mae <= 0.006, "MAE {}", r.mae);
+}
+
+#[test]
+fn facing_away_receivers_and_empty_bins_cost_nothing() {
+    let scene = load("sphere.toml", 160, 120);
+    let frame = sism_frame(&scene, Composition::Additive);
+    let s = &frame.stats;
+    assert!(s.receivers_facing_away > 0, "the sphere's dark side faces away");
+    assert_eq!(s.samples, s.receivers - s.receivers_facing_away);
+    assert!(s.occupied_bins < s.bins, "some bins are empty");
+    // Closed meshes: only light-facing triangles count.
+    assert!(s.umbra.triangles_back_facing > 0);
+    let facing_away = frame.visibility.values.iter().filter(|&&v| v == -1.0).count() as u64;
+    assert_eq!(facing_away, s.receivers_facing_away);
+}
+
+#[test]
+fn same_bits_for_any_thread_count_and_for_both_compositions_run_twice() {
+    let scene = load("sphere.toml", 160, 120);
+    for composition in [Composition::Additive, Composition::Independent] {
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| sism_frame(&scene, composition))
+        };
+        let (a, b) = (run(1), run(3));
+        let bits = |f: &SismFrame| {
+            f.visibility
+                .values
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&a), bits(&b), "{composition:?}");
+        assert_eq!(
+            a.stats.penumbra.samples_evaluated,
+            b.stats.penumbra.samples_evaluated
+        );
+        assert_eq!(a.stats.umbra.samples_tested, b.stats.umbra.samples_tested);
+    }
+}
+
+/// Every receiver value is a finite number in [0, 1] (or -1 for facing away); misses are NaN.
+fn assert_well_formed(frame: &SismFrame, what: &str) {
+    for (v, r) in frame.visibility.values.iter().zip(&frame.receivers.pixels) {
+        match r {
+            None => assert!(v.is_nan(), "{what}: a miss holds {v}"),
+            Some(_) => assert!(*v == -1.0 || (0.0..=1.0).contains(v), "{what}: V = {v}"),
+        }
+    }
+}
+
+fn inline_scene(body: &str, light: &str) -> Scene {
+    let text = format!(
+        "{body}\n[camera]\neye = [0.0, 3.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nfov_y_deg = 50.0\nwidth = 96\nheight = 72\n{light}"
+    );
+    Scene::from_toml(&text, Path::new("/virtual/adversarial.toml")).unwrap()
+}
+
+const GROUND: &str =
+    "[[quad]]\ncorner = [-5.0, 0.0, 5.0]\nedge_u = [10.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -10.0]\n";
+
+#[test]
+fn adversarial_scenes_stay_well_formed_and_close() {
+    let cases = [
+        // Occluder coplanar with the receiver (a quad lying on the ground) and one touching it.
+        (
+            format!("{GROUND}[[quad]]\ncorner = [-0.5, 0.0, 0.5]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -1.0]\n[[box]]\nmin = [1.0, 0.0, -0.5]\nmax = [1.6, 0.8, 0.1]\n"),
+            "[light]\ncenter = [0.5, 3.0, 0.5]\nradius = 0.4\n",
+            0.02,
+        ),
+        // A tiny light: nearly hard shadows.
+        (
+            format!("{GROUND}[[box]]\nmin = [-0.5, 0.5, -0.5]\nmax = [0.5, 0.7, 0.5]\n"),
+            "[light]\ncenter = [0.3, 3.0, 0.2]\nradius = 0.0005\n",
+            0.01,
+        ),
+        // A huge light, larger than the occluder and near it.
+        (
+            format!("{GROUND}[[box]]\nmin = [-0.5, 0.5, -0.5]\nmax = [0.5, 0.7, 0.5]\n"),
+            "[light]\ncenter = [0.0, 2.5, 0.0]\nradius = 1.5\n",
+            0.03,
+        ),
+        // A light almost touching the occluder.
+        (
+            format!("{GROUND}[[box]]\nmin = [-0.5, 0.5, -0.5]\nmax = [0.5, 0.7, 0.5]\n"),
+            "[light]\ncenter = [0.0, 0.9, 0.0]\nradius = 0.19\n",
+            0.03,
+        ),
+        // Receivers behind the light (the light between camera and ground, receivers all around).
+        (
+            format!("{GROUND}[[sphere]]\ncenter = [0.8, 0.4, 0.0]\nradius = 0.3\n"),
+            "[light]\ncenter = [0.0, 0.5, 0.2]\nradius = 0.1\n",
+            0.03,
+        ),
+    ];
+    for (k, (body, light, bound)) in cases.iter().enumerate() {
+        let scene = inline_scene(body, light);
+        for composition in [Composition::Additive, Composition::Independent] {
+            let (r, frame) = score(&scene, 256, composition);
+            assert_well_formed(&frame, &format!("case {k}"));
+            eprintln!(
+                "adversarial case {k} {composition:?}: {} px, {} penumbra px, MAE {:.4} p99 {:.4}",
+                r.compared, r.penumbra_pixels, r.mae, r.p99
+            );
+            assert!(r.compared > 3000, "case {k}: the view shows the scene");
+            assert!(
+                r.mae <= *bound,
+                "case {k} {composition:?}: MAE {} > {bound}",
+                r.mae
+            );
+        }
+    }
+}
+
+#[test]
+fn shared_scenes_within_measured_bounds() {
+    if crate::util::shared_scenes().is_none() {
+        return;
+    }
+    // Bounds are the figures measured at this size (see the closing notes) with a margin: they pin
+    // regressions. The paper's additive composition darkens overlapping foliage (C = 0); the
+    // independent composition is the one held to the 0.03 where it can be.
+    for (name, composition, bound) in [
+        ("stanford-bunny.toml", Composition::Additive, 0.006),
+        ("palm.toml", Composition::Independent, 0.025),
+        ("cornell-box.toml", Composition::Additive, 0.02),
+    ] {
+        let scene = load(name, 200, 150);
+        let (r, frame) = score(&scene, 256, composition);
+        assert_well_formed(&frame, name);
+        eprintln!(
+            "{name} {composition:?}: MAE {:.4} p99 {:.4} penumbra MAE {:.4}",
+            r.mae, r.p99, r.penumbra_mae
+        );
+        assert!(r.mae <= bound, "{name}: MAE {} > {bound}", r.mae);
+    }
+}
