@@ -1,0 +1,69 @@
+//! Native wall time of a SISM frame and of each phase at 1600x1200, on palm (43K triangles) and
+//! japanese-maple (198K), plus the embedded plate.
+//!
+//! `cargo bench --bench sism`. Criterion times whole frames (the scene's per-mesh data is prepared
+//! once, outside the timing, as it would be across frames); the per-phase medians over the measured
+//! frames are printed from the frame's own phase timers.
+
+use std::path::Path;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use sism::scene::Scene;
+use sism::sism::{render_frame, Composition, PhaseTimes, PreparedScene, SismOptions};
+
+fn median(mut v: Vec<Duration>) -> f64 {
+    v.sort();
+    v[v.len() / 2].as_secs_f64() * 1e3
+}
+
+fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.toml"));
+    let mut scene = match Scene::load(&path) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("skipping {name}: {e}");
+            return;
+        }
+    };
+    scene.camera.width = 1600;
+    scene.camera.height = 1200;
+    let prepared = PreparedScene::new(&scene);
+    let options = SismOptions {
+        composition,
+        ..Default::default()
+    };
+    let mut phases: Vec<PhaseTimes> = Vec::new();
+    let mut group = c.benchmark_group("sism_frame_1600x1200");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(20));
+    group.bench_function(format!("{name} {composition:?}"), |b| {
+        b.iter(|| {
+            let frame = render_frame(&scene, &prepared, &options);
+            phases.push(frame.stats.times);
+        })
+    });
+    group.finish();
+    let get = |f: fn(&PhaseTimes) -> Duration| median(phases.iter().map(f).collect());
+    eprintln!(
+        "{name} {composition:?} per-phase medians (ms): eye {:.1} | grid {:.1} | umbra {:.1} | silhouettes {:.1} | penumbra {:.1} | resolve {:.1} | frame {:.1}",
+        get(|p| p.eye_pass),
+        get(|p| p.grid),
+        get(|p| p.umbra),
+        get(|p| p.silhouettes),
+        get(|p| p.penumbra),
+        get(|p| p.resolve),
+        get(|p| p.total()),
+    );
+}
+
+fn frames(c: &mut Criterion) {
+    bench_scene(c, "plate", Composition::Additive);
+    bench_scene(c, "palm", Composition::Additive);
+    bench_scene(c, "palm", Composition::Independent);
+    bench_scene(c, "japanese-maple", Composition::Additive);
+    bench_scene(c, "japanese-maple", Composition::Independent);
+}
+
+criterion_group!(benches, frames);
+criterion_main!(benches);
