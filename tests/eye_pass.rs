@@ -119,15 +119,29 @@ fn check_against_rays(name: &str, scene: &Scene) -> EyePassOutput {
         assert_eq!(p.is_some(), t != u32::MAX);
         assert!(t == u32::MAX || (t as usize) < scene.triangle_count());
     }
-    // Normals are unit and face the camera.
+    // Normals are unit and face the camera, and the receiver is exactly (bit for bit) where the
+    // pixel's centre ray meets the winning triangle's plane, as a scalar glam computation gives it.
     let frame = scene.camera.frame();
+    let corners: Vec<[Vec3; 3]> = scene.triangles().collect();
+    let mut exact = 0usize;
     for (k, p) in out.receivers.pixels.iter().enumerate() {
         if let Some(r) = p {
             let (i, j) = (k as u32 % frame.width, k as u32 / frame.width);
+            let dir = frame.ray_direction(i, j);
             assert!((r.normal.length() - 1.0).abs() < 1e-4);
-            assert!(r.normal.dot(frame.ray_direction(i, j)) <= 0.0);
+            assert!(r.normal.dot(dir) <= 0.0);
+            let [a, b, c] = corners[out.triangles[k] as usize];
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            assert_eq!(r.normal.abs(), n.abs(), "pixel ({i}, {j})");
+            let t = n.dot(a - frame.eye) / n.dot(dir);
+            if t.is_finite() && t > 0.0 {
+                assert_eq!(r.position, frame.eye + dir * t, "pixel ({i}, {j})");
+                exact += 1;
+            }
         }
     }
+    // Only grazing rays may fall back to the rasterized depth.
+    assert!(exact as u64 + s.pixels_covered / 1000 >= s.pixels_covered);
     out
 }
 

@@ -334,8 +334,9 @@ struct ScreenTri {
     original: u32,
     /// Unit geometric normal of the source triangle, `(b - a) x (c - a)` normalised (not flipped).
     normal: Vec3,
-    /// First corner of the source triangle, world units: a point of its plane.
-    point: Vec3,
+    /// `normal · (corner - eye)`, world units: the plane's signed distance from the eye, so the
+    /// centre ray `eye + t * dir` meets the plane at `t = plane_dist / (normal · dir)`.
+    plane_dist: f32,
 }
 
 /// The camera and image constants of the front end.
@@ -463,7 +464,7 @@ impl FrontEnd {
             bbox: [x0, y0, x1, y1],
             original,
             normal,
-            point,
+            plane_dist: normal.dot(point - self.eye),
         });
         for ty in y0 / TILE..=y1 / TILE {
             for tx in x0 / TILE..=x1 / TILE {
@@ -531,7 +532,7 @@ impl Kernel for FrontEndKernel<'_> {
 struct TileBuf {
     /// Largest `1/z` so far, 1/world units; 0 = nothing (infinitely far).
     inv_z: [f32; TILE_PIXELS],
-    /// Winning screen triangle's packed id, -1 = none.
+    /// Winning triangle's position in the tile's list, -1 = none.
     id: [i32; TILE_PIXELS],
 }
 
@@ -658,8 +659,10 @@ impl Kernel for TileKernel<'_> {
         let sub_y = s.from_array_f(lanes(|k| ((k / 4) * 16) as f32 + 8.0));
         let blk_x = s.from_array_f(lanes(|k| ((k % 4) * 4) as f32 + 2.0));
         let blk_y = s.from_array_f(lanes(|k| ((k / 4) * 4) as f32 + 2.0));
-        for &id in self.list {
+        let mut table = ResolveTable::with_capacity(self.list.len());
+        for (slot, &id) in self.list.iter().enumerate() {
             let t = self.tris.get(id);
+            table.push(t);
             let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(t, ox as f64, oy as f64);
             s.scalar_ops(60);
             // Bounding box ∩ tile, tile-local inclusive pixels.
@@ -730,7 +733,7 @@ impl Kernel for TileKernel<'_> {
                     // Strictly nearer wins: on a tie the earlier triangle (list order) stays.
                     let pass = s.mask_and(inside, s.cmp_gt_f(iz, old));
                     s.mask_store_f(&mut buf.inv_z[base..base + 16], pass, iz);
-                    s.mask_store_i(&mut buf.id[base..base + 16], pass, s.splat_i(id as i32));
+                    s.mask_store_i(&mut buf.id[base..base + 16], pass, s.splat_i(slot as i32));
                     counts.depth_writes += s.mask_popcnt(pass) as u64;
                 }
             }
@@ -738,56 +741,149 @@ impl Kernel for TileKernel<'_> {
         s.end_task();
         // Resolve, while the tile's triangles are still in cache.
         s.begin_task(TASK_RESOLVE);
-        counts.pixels_covered = resolve(s, self.frame, self.tris, &buf, self.origin, self.rows);
+        counts.pixels_covered = resolve(s, self.frame, &table, &buf, self.origin, self.rows);
         s.end_task();
         counts
     }
 }
 
-/// Writes the receivers of a tile's pixels from its buffer; returns the number covered. The
-/// receiver is where the pixel's CONTRACTS.md centre ray meets the winning triangle's plane.
+/// What the resolve needs of a tile's triangles, structure-of-arrays by list position (gathered).
+struct ResolveTable {
+    nx: Vec<f32>,
+    ny: Vec<f32>,
+    nz: Vec<f32>,
+    plane_dist: Vec<f32>,
+    original: Vec<i32>,
+}
+
+impl ResolveTable {
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            nx: Vec::with_capacity(n),
+            ny: Vec::with_capacity(n),
+            nz: Vec::with_capacity(n),
+            plane_dist: Vec::with_capacity(n),
+            original: Vec::with_capacity(n),
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, t: &ScreenTri) {
+        self.nx.push(t.normal.x);
+        self.ny.push(t.normal.y);
+        self.nz.push(t.normal.z);
+        self.plane_dist.push(t.plane_dist);
+        self.original.push(t.original as i32);
+    }
+}
+
+/// Writes the receivers of a tile's pixels from its buffer, a 4×4 block (16 lanes) at a time;
+/// returns the number covered. The receiver is where the pixel's CONTRACTS.md centre ray meets the
+/// winning triangle's plane. The ray direction is computed with exactly the operations, in the
+/// order, of [`CameraFrame::ray_direction`] (glam's scalar `Vec3`: no fused operations, correctly
+/// rounded division and square root), so it is bit-identical to the one ray casting uses.
 #[inline(always)]
 fn resolve<S: Simd>(
     s: S,
     f: &CameraFrame,
-    tris: &TriStore<'_>,
+    table: &ResolveTable,
     buf: &TileBuf,
     (ox, oy): (u32, u32),
     rows: TileRows<'_>,
 ) -> u64 {
-    let mut covered = 0;
-    for (r, (row, ids)) in rows.pixels.into_iter().zip(rows.triangles).enumerate() {
-        let j = oy + r as u32;
-        for (c, (px, tri_out)) in row.iter_mut().zip(ids.iter_mut()).enumerate() {
-            let i = ox + c as u32;
-            let k = TileBuf::index(c as u32, r as u32);
-            let id = buf.id[k];
+    let mut pixels = rows.pixels;
+    let mut triangles = rows.triangles;
+    let th = pixels.len() as u32;
+    let tw = pixels.first().map_or(0, |r| r.len()) as u32;
+    let (one, two, half, zero) = (s.splat_f(1.0), s.splat_f(2.0), s.splat_f(0.5), s.splat_f(0.0));
+    let (w, h) = (s.splat_f(f.width as f32), s.splat_f(f.height as f32));
+    let (tan, aspect) = (s.splat_f(f.tan_half_fov), s.splat_f(f.aspect));
+    let v = |a: Vec3| [s.splat_f(a.x), s.splat_f(a.y), s.splat_f(a.z)];
+    let (fw, rt, up, eye) = (v(f.forward), v(f.right), v(f.up), v(f.eye));
+    let lane_x = s.from_array_f(lanes(|k| (k % 4) as f32));
+    let lane_y = s.from_array_f(lanes(|k| (k / 4) as f32));
+    let mut covered = 0u64;
+    for by in (0..th).step_by(4) {
+        for bx in (0..tw).step_by(4) {
+            let base = TileBuf::index(bx, by);
+            let slot = s.load_i(&buf.id[base..base + 16]);
+            let hit = s.cmp_ge_i(slot, s.splat_i(0));
+            let rows_here = (th - by).min(4) as usize;
+            let cols_here = (tw - bx).min(4) as usize;
             s.scalar_ops(4);
-            if id < 0 {
-                px.write(None);
-                tri_out.write(NO_TRIANGLE);
+            if !s.mask_any(hit) {
+                for r in 0..rows_here {
+                    let row = (by as usize) + r;
+                    for c in 0..cols_here {
+                        pixels[row][bx as usize + c].write(None);
+                        triangles[row][bx as usize + c].write(NO_TRIANGLE);
+                    }
+                }
+                s.scalar_ops(2 * (rows_here * cols_here) as u64);
                 continue;
             }
-            let t = tris.get(id as u32);
-            let dir = f.ray_direction(i, j);
-            let denom = t.normal.dot(dir);
-            let dist = t.normal.dot(t.point - f.eye) / denom;
-            let position = if dist.is_finite() && dist > 0.0 {
-                f.eye + dir * dist
-            } else {
-                // Grazing ray (plane nearly parallel to it): use the rasterized depth. The centre
-                // ray at view depth z is eye + z * (forward + sx * right + sy * up).
-                let sx = (2.0 * (i as f32 + 0.5) / f.width as f32 - 1.0) * f.tan_half_fov * f.aspect;
-                let sy = (1.0 - 2.0 * (j as f32 + 0.5) / f.height as f32) * f.tan_half_fov;
-                f.eye + (f.forward + sx * f.right + sy * f.up) / buf.inv_z[k]
+            // Pixel indices as floats (exact: sides are at most 32768).
+            let i = s.add_f(lane_x, s.splat_f((ox + bx) as f32));
+            let j = s.add_f(lane_y, s.splat_f((oy + by) as f32));
+            // sx = (2 (i + 0.5) / W - 1) t a; sy = (1 - 2 (j + 0.5) / H) t.
+            let sx = s.div_f(s.mul_f(two, s.add_f(i, half)), w);
+            let sx = s.mul_f(s.mul_f(s.sub_f(sx, one), tan), aspect);
+            let sy = s.div_f(s.mul_f(two, s.add_f(j, half)), h);
+            let sy = s.mul_f(s.sub_f(one, sy), tan);
+            // d = forward + sx right + sy up, then normalised as glam does: d * (1 / sqrt(d · d)).
+            let d = [0, 1, 2].map(|c| s.add_f(s.add_f(fw[c], s.mul_f(sx, rt[c])), s.mul_f(sy, up[c])));
+            let dot = |a: &[S::F32; 3], b: &[S::F32; 3]| {
+                s.add_f(
+                    s.add_f(s.mul_f(a[0], b[0]), s.mul_f(a[1], b[1])),
+                    s.mul_f(a[2], b[2]),
+                )
             };
-            px.write(Some(Receiver {
-                position,
-                normal: if denom > 0.0 { -t.normal } else { t.normal },
-            }));
-            tri_out.write(t.original);
-            covered += 1;
-            s.scalar_ops(45);
+            let inv_len = s.div_f(one, s.sqrt_f(dot(&d, &d)));
+            let dir = d.map(|c| s.mul_f(c, inv_len));
+            // The winning triangle's plane, gathered by list position.
+            let g = |src: &[f32]| s.mask_gather_f(zero, hit, src, slot);
+            let n = [g(&table.nx), g(&table.ny), g(&table.nz)];
+            let plane_dist = g(&table.plane_dist);
+            let original = s.mask_gather_i(s.splat_i(-1), hit, &table.original, slot);
+            let denom = dot(&n, &dir);
+            let dist = s.div_f(plane_dist, denom);
+            // Grazing rays (plane nearly parallel, dist not finite or not ahead) use the rasterized
+            // depth instead: the centre ray at view depth z is eye + z d (d's forward part is 1).
+            let ahead = s.mask_and(s.cmp_gt_f(dist, zero), s.cmp_lt_f(dist, s.splat_f(f32::INFINITY)));
+            let inv_z = s.load_f(&buf.inv_z[base..base + 16]);
+            let pos = [0, 1, 2].map(|c| {
+                let on_plane = s.add_f(eye[c], s.mul_f(dir[c], dist));
+                let by_depth = s.add_f(eye[c], s.div_f(d[c], inv_z));
+                s.select_f(ahead, on_plane, by_depth)
+            });
+            // Flip the normal to face the camera.
+            let away = s.cmp_gt_f(denom, zero);
+            let nrm = n.map(|c| s.select_f(away, s.neg_f(c), c));
+            let pos = pos.map(|c| s.to_array_f(c));
+            let nrm = nrm.map(|c| s.to_array_f(c));
+            let original = s.to_array_i(original);
+            for r in 0..rows_here {
+                let row = (by as usize) + r;
+                for c in 0..cols_here {
+                    let k = 4 * r + c;
+                    let (px, tri) = (
+                        &mut pixels[row][bx as usize + c],
+                        &mut triangles[row][bx as usize + c],
+                    );
+                    if hit.test(k) {
+                        px.write(Some(Receiver {
+                            position: Vec3::new(pos[0][k], pos[1][k], pos[2][k]),
+                            normal: Vec3::new(nrm[0][k], nrm[1][k], nrm[2][k]),
+                        }));
+                        tri.write(original[k] as u32);
+                        covered += 1;
+                    } else {
+                        px.write(None);
+                        tri.write(NO_TRIANGLE);
+                    }
+                }
+            }
+            s.scalar_ops(8 * (rows_here * cols_here) as u64);
         }
     }
     covered
