@@ -109,6 +109,16 @@ fn main() -> ExitCode {
     }
 }
 
+/// Prints `text` and a newline on stdout. A closed pipe (`sism compare ... | head`) is not an error:
+/// the reader has what it wanted.
+fn print_stdout(text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    match writeln!(std::io::stdout().lock(), "{text}") {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render {
@@ -157,9 +167,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let report = metrics::compare(&r, &t)
                 .with_context(|| format!("comparing {} with {}", test.display(), reference.display()))?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&report)?);
+                print_stdout(&serde_json::to_string_pretty(&report)?)?;
             } else {
-                println!("{report}");
+                print_stdout(&report.to_string())?;
             }
             if let Some(path) = heatmap {
                 anyhow::ensure!(
