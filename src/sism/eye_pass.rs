@@ -574,32 +574,40 @@ struct EdgeSetup {
     eps: f32,
 }
 
+/// Edge `k` (from vertex `k` to `k + 1`) of `t` relative to tile origin `(ox, oy)`, set up in f64.
+#[inline(always)]
+fn edge_setup(t: &ScreenTri, k: usize, ox: f64, oy: f64) -> EdgeSetup {
+    let (p, q) = (t.v[k], t.v[(k + 1) % 3]);
+    // Canonical order: the endpoint with the smaller (y, x) first.
+    let flip = (q[1], q[0]) < (p[1], p[0]);
+    let (a, b) = if flip { (q, p) } else { (p, q) };
+    let ex = b[0] as f64 - a[0] as f64;
+    let ey = b[1] as f64 - a[1] as f64;
+    let e = ex * (oy - a[1] as f64) - ey * (ox - a[0] as f64);
+    // The triangle lies on the positive side of its edges when its area is positive; the
+    // canonical flip negates. Negation commutes exactly with rounding and with fma.
+    let inside_positive = t.positive != flip;
+    let sign = if inside_positive { 1.0 } else { -1.0 };
+    let (a32, b32, e32) = ((sign * -ey) as f32, (sign * ex) as f32, (sign * e) as f32);
+    EdgeSetup {
+        a: a32,
+        b: b32,
+        e: e32,
+        inclusive: inside_positive,
+        eps: (e32.abs() + TILE as f32 * (a32.abs() + b32.abs())) * (1.0 / (1 << 20) as f32),
+    }
+}
+
 /// Edge functions and depth plane of `t` relative to tile origin `(ox, oy)` (pixels), in f64.
 #[inline(always)]
 fn tile_setup(t: &ScreenTri, ox: f64, oy: f64) -> ([EdgeSetup; 3], [f32; 5]) {
-    let edges = [0, 1, 2].map(|k| {
-        let (p, q) = (t.v[k], t.v[(k + 1) % 3]);
-        // Canonical order: the endpoint with the smaller (y, x) first.
-        let flip = (q[1], q[0]) < (p[1], p[0]);
-        let (a, b) = if flip { (q, p) } else { (p, q) };
-        let ex = b[0] as f64 - a[0] as f64;
-        let ey = b[1] as f64 - a[1] as f64;
-        let e = ex * (oy - a[1] as f64) - ey * (ox - a[0] as f64);
-        // The triangle lies on the positive side of its edges when its area is positive; the
-        // canonical flip negates. Negation commutes exactly with rounding and with fma.
-        let inside_positive = t.positive != flip;
-        let sign = if inside_positive { 1.0 } else { -1.0 };
-        let (a32, b32, e32) = ((sign * -ey) as f32, (sign * ex) as f32, (sign * e) as f32);
-        EdgeSetup {
-            a: a32,
-            b: b32,
-            e: e32,
-            inclusive: inside_positive,
-            eps: (e32.abs() + TILE as f32 * (a32.abs() + b32.abs())) * (1.0 / (1 << 20) as f32),
-        }
-    });
+    let edges = [
+        edge_setup(t, 0, ox, oy),
+        edge_setup(t, 1, ox, oy),
+        edge_setup(t, 2, ox, oy),
+    ];
     // 1/z is affine in screen space: solve its plane from the three vertices.
-    let iz = t.z.map(|z| 1.0 / z as f64);
+    let iz = [1.0 / t.z[0] as f64, 1.0 / t.z[1] as f64, 1.0 / t.z[2] as f64];
     let (x0, y0) = (t.v[0][0] as f64, t.v[0][1] as f64);
     let (d1x, d1y) = (t.v[1][0] as f64 - x0, t.v[1][1] as f64 - y0);
     let (d2x, d2y) = (t.v[2][0] as f64 - x0, t.v[2][1] as f64 - y0);
@@ -623,6 +631,12 @@ struct TileKernel<'a> {
     origin: (u32, u32),
     /// The tile's pieces of the output frame.
     rows: TileRows<'a>,
+}
+
+/// An edge's coefficients broadcast to registers `(a, b, e)`.
+#[inline(always)]
+fn splat_edge<S: Simd>(s: S, e: &EdgeSetup) -> (S::F32, S::F32, S::F32) {
+    (s.splat_f(e.a), s.splat_f(e.b), s.splat_f(e.e))
 }
 
 /// 16 lanes `[c(k) for k in 0..16]` as an array.
@@ -670,7 +684,11 @@ impl Kernel for TileKernel<'_> {
             let y0 = t.bbox[1].max(oy) - oy;
             let x1 = t.bbox[2].min(ox + TILE - 1) - ox;
             let y1 = t.bbox[3].min(oy + TILE - 1) - oy;
-            let ev = edges.map(|e| (s.splat_f(e.a), s.splat_f(e.b), s.splat_f(e.e)));
+            let ev = [
+                splat_edge(s, &edges[0]),
+                splat_edge(s, &edges[1]),
+                splat_edge(s, &edges[2]),
+            ];
             // Level 1: the 16 sub-tiles; reject where an edge is negative at every pixel centre.
             let mut subs = grid_mask(x0 / SUB, x1 / SUB, y0 / SUB, y1 / SUB);
             for (e, &(a, b, c)) in edges.iter().zip(&ev) {
@@ -777,12 +795,28 @@ impl ResolveTable {
     }
 }
 
+/// A world vector broadcast to three registers.
+#[inline(always)]
+fn splat3<S: Simd>(s: S, a: Vec3) -> [S::F32; 3] {
+    [s.splat_f(a.x), s.splat_f(a.y), s.splat_f(a.z)]
+}
+
+/// `a · b` in glam's order: `(a0 b0 + a1 b1) + a2 b2`, no fused operations.
+#[inline(always)]
+fn dot3<S: Simd>(s: S, a: &[S::F32; 3], b: &[S::F32; 3]) -> S::F32 {
+    s.add_f(
+        s.add_f(s.mul_f(a[0], b[0]), s.mul_f(a[1], b[1])),
+        s.mul_f(a[2], b[2]),
+    )
+}
+
 /// Writes the receivers of a tile's pixels from its buffer, a 4×4 block (16 lanes) at a time;
 /// returns the number covered. The receiver is where the pixel's CONTRACTS.md centre ray meets the
 /// winning triangle's plane. The ray direction is computed with exactly the operations, in the
 /// order, of [`CameraFrame::ray_direction`] (glam's scalar `Vec3`: no fused operations, correctly
 /// rounded division and square root), so it is bit-identical to the one ray casting uses.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // index loops keep every vector op in the kernel body
 fn resolve<S: Simd>(
     s: S,
     f: &CameraFrame,
@@ -798,8 +832,12 @@ fn resolve<S: Simd>(
     let (one, two, half, zero) = (s.splat_f(1.0), s.splat_f(2.0), s.splat_f(0.5), s.splat_f(0.0));
     let (w, h) = (s.splat_f(f.width as f32), s.splat_f(f.height as f32));
     let (tan, aspect) = (s.splat_f(f.tan_half_fov), s.splat_f(f.aspect));
-    let v = |a: Vec3| [s.splat_f(a.x), s.splat_f(a.y), s.splat_f(a.z)];
-    let (fw, rt, up, eye) = (v(f.forward), v(f.right), v(f.up), v(f.eye));
+    let (fw, rt, up, eye) = (
+        splat3(s, f.forward),
+        splat3(s, f.right),
+        splat3(s, f.up),
+        splat3(s, f.eye),
+    );
     let lane_x = s.from_array_f(lanes(|k| (k % 4) as f32));
     let lane_y = s.from_array_f(lanes(|k| (k / 4) as f32));
     let mut covered = 0u64;
@@ -831,36 +869,41 @@ fn resolve<S: Simd>(
             let sy = s.div_f(s.mul_f(two, s.add_f(j, half)), h);
             let sy = s.mul_f(s.sub_f(one, sy), tan);
             // d = forward + sx right + sy up, then normalised as glam does: d * (1 / sqrt(d · d)).
-            let d = [0, 1, 2].map(|c| s.add_f(s.add_f(fw[c], s.mul_f(sx, rt[c])), s.mul_f(sy, up[c])));
-            let dot = |a: &[S::F32; 3], b: &[S::F32; 3]| {
-                s.add_f(
-                    s.add_f(s.mul_f(a[0], b[0]), s.mul_f(a[1], b[1])),
-                    s.mul_f(a[2], b[2]),
-                )
-            };
-            let inv_len = s.div_f(one, s.sqrt_f(dot(&d, &d)));
-            let dir = d.map(|c| s.mul_f(c, inv_len));
+            // (No closures or array maps here: they would not inline into the backend's
+            // target-feature entry point, and every vector op would become a call.)
+            let mut d = [zero; 3];
+            for c in 0..3 {
+                d[c] = s.add_f(s.add_f(fw[c], s.mul_f(sx, rt[c])), s.mul_f(sy, up[c]));
+            }
+            let inv_len = s.div_f(one, s.sqrt_f(dot3(s, &d, &d)));
+            let mut dir = [zero; 3];
+            for c in 0..3 {
+                dir[c] = s.mul_f(d[c], inv_len);
+            }
             // The winning triangle's plane, gathered by list position.
-            let g = |src: &[f32]| s.mask_gather_f(zero, hit, src, slot);
-            let n = [g(&table.nx), g(&table.ny), g(&table.nz)];
-            let plane_dist = g(&table.plane_dist);
+            let n = [
+                s.mask_gather_f(zero, hit, &table.nx, slot),
+                s.mask_gather_f(zero, hit, &table.ny, slot),
+                s.mask_gather_f(zero, hit, &table.nz, slot),
+            ];
+            let plane_dist = s.mask_gather_f(zero, hit, &table.plane_dist, slot);
             let original = s.mask_gather_i(s.splat_i(-1), hit, &table.original, slot);
-            let denom = dot(&n, &dir);
+            let denom = dot3(s, &n, &dir);
             let dist = s.div_f(plane_dist, denom);
             // Grazing rays (plane nearly parallel, dist not finite or not ahead) use the rasterized
             // depth instead: the centre ray at view depth z is eye + z d (d's forward part is 1).
             let ahead = s.mask_and(s.cmp_gt_f(dist, zero), s.cmp_lt_f(dist, s.splat_f(f32::INFINITY)));
             let inv_z = s.load_f(&buf.inv_z[base..base + 16]);
-            let pos = [0, 1, 2].map(|c| {
-                let on_plane = s.add_f(eye[c], s.mul_f(dir[c], dist));
-                let by_depth = s.add_f(eye[c], s.div_f(d[c], inv_z));
-                s.select_f(ahead, on_plane, by_depth)
-            });
             // Flip the normal to face the camera.
             let away = s.cmp_gt_f(denom, zero);
-            let nrm = n.map(|c| s.select_f(away, s.neg_f(c), c));
-            let pos = pos.map(|c| s.to_array_f(c));
-            let nrm = nrm.map(|c| s.to_array_f(c));
+            let mut pos = [[0.0f32; 16]; 3];
+            let mut nrm = [[0.0f32; 16]; 3];
+            for c in 0..3 {
+                let on_plane = s.add_f(eye[c], s.mul_f(dir[c], dist));
+                let by_depth = s.add_f(eye[c], s.div_f(d[c], inv_z));
+                pos[c] = s.to_array_f(s.select_f(ahead, on_plane, by_depth));
+                nrm[c] = s.to_array_f(s.select_f(away, s.neg_f(n[c]), n[c]));
+            }
             let original = s.to_array_i(original);
             for r in 0..rows_here {
                 let row = (by as usize) + r;
