@@ -105,12 +105,16 @@ pub fn candidates(spp_list: &[u32]) -> Vec<Candidate> {
             }),
         })
         .collect();
-    list.push(Candidate {
-        algorithm: Algorithm::Sism.name().into(),
-        setting: "-".into(),
-        label: String::new(),
-        run: Box::new(|scene: &Scene| render::render(scene, Algorithm::Sism, &ReferenceOptions::default())),
-    });
+    for algorithm in [Algorithm::Sism, Algorithm::SismIndependent] {
+        list.push(Candidate {
+            algorithm: algorithm.name().into(),
+            setting: "-".into(),
+            label: String::new(),
+            run: Box::new(move |scene: &Scene| {
+                render::render(scene, algorithm, &ReferenceOptions::default())
+            }),
+        });
+    }
     list
 }
 
@@ -644,7 +648,8 @@ mod tests {
                 ("reference", "4"),
                 ("reference", "16"),
                 ("reference", "64"),
-                ("sism", "-")
+                ("sism", "-"),
+                ("sism-independent", "-")
             ]
         );
     }

@@ -203,7 +203,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 progress: !quiet,
             };
             let report = sism::bench_cmd::bench(&scene, &options)?;
-            print!("{}", sism::bench_cmd::to_table(&report));
+            print_stdout(sism::bench_cmd::to_table(&report).trim_end())?;
             if !quiet {
                 eprintln!("wrote {}", options.out.display());
             }
