@@ -31,17 +31,28 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path, width: u32, height: u
     let mut group = c.benchmark_group("reference_shadow_rays");
     group.throughput(Throughput::Elements(rays));
     group.sample_size(10);
-    group.bench_function(format!("{name} ({} triangles, {rays} rays)", scene.triangle_count()), |b| {
-        b.iter(|| render_visibility(&scene, &bvh, &receivers, &options))
-    });
+    group.bench_function(
+        format!("{name} ({} triangles, {rays} rays)", scene.triangle_count()),
+        |b| b.iter(|| render_visibility(&scene, &bvh, &receivers, &options)),
+    );
     group.finish();
 }
 
 fn shadow_rays(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    bench_scene(c, "japanese-maple", &root.join("scenes/japanese-maple.toml"), 400, 300);
+    bench_scene(
+        c,
+        "japanese-maple",
+        &root.join("scenes/japanese-maple.toml"),
+        400,
+        300,
+    );
     bench_scene(c, "plate", &root.join("scenes/plate.toml"), 400, 300);
 }
+
+/// As the CLI: freed frame buffers stay mapped for the next frame (see src/main.rs).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 criterion_group!(benches, shadow_rays);
 criterion_main!(benches);

@@ -18,7 +18,9 @@ fn median(mut v: Vec<Duration>) -> f64 {
 }
 
 fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(format!("{name}.toml"));
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(format!("{name}.toml"));
     let mut scene = match Scene::load(&path) {
         Ok(s) => s,
         Err(e) => {
@@ -64,6 +66,10 @@ fn frames(c: &mut Criterion) {
     bench_scene(c, "japanese-maple", Composition::Additive);
     bench_scene(c, "japanese-maple", Composition::Independent);
 }
+
+/// As the CLI: freed frame buffers stay mapped for the next frame (see src/main.rs).
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 criterion_group!(benches, frames);
 criterion_main!(benches);

@@ -99,6 +99,11 @@ enum Command {
     },
 }
 
+/// mimalloc keeps freed pages for reuse: the frame's large buffers (tens of MB each) would otherwise
+/// be returned to the OS and page-faulted in again by the next phase.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,

@@ -181,8 +181,9 @@ impl Grid {
     }
 }
 
-/// Samples classified per chunk; the unit of the first counting-sort pass.
-const CHUNK: usize = 8192;
+/// Samples classified per chunk; the unit of the first counting-sort pass. Large enough that the
+/// per-chunk bin histograms and their prefix sum (bins x chunks) stay small.
+const CHUNK: usize = 65_536;
 
 /// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it.
 pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> Grid {
@@ -317,26 +318,22 @@ pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> 
     }
     cell_start[n_bins * cells_per_bin] = samples.len() as u32;
 
-    // Gather the sorted structure of arrays.
-    let take = |f: &(dyn Fn(&SampleIn) -> f32 + Sync)| -> Vec<f32> {
-        sorted_index
-            .par_iter()
-            .map(|&i| f(&samples[i as usize]))
-            .collect()
-    };
+    // Gather the sorted structure of arrays: one random-access pass (a sample's fields share a cache
+    // line), then streaming passes per field.
+    let sorted_in: Vec<SampleIn> = sorted_index.par_iter().map(|&i| samples[i as usize]).collect();
+    drop(sorted_index);
+    let field = |f: fn(&SampleIn) -> f32| -> Vec<f32> { sorted_in.par_iter().map(f).collect() };
     let sorted = SortedSamples {
-        x: take(&|s| s.q.x),
-        y: take(&|s| s.q.y),
-        z: take(&|s| s.q.z),
-        u: take(&|s| s.uv.x),
-        v: take(&|s| s.uv.y),
-        depth: take(&|s| s.depth),
-        cos_theta: take(&|s| s.cos_theta),
-        pixel: sorted_index
-            .par_iter()
-            .map(|&i| samples[i as usize].pixel)
-            .collect(),
+        x: field(|s| s.q.x),
+        y: field(|s| s.q.y),
+        z: field(|s| s.q.z),
+        u: field(|s| s.uv.x),
+        v: field(|s| s.uv.y),
+        depth: field(|s| s.depth),
+        cos_theta: field(|s| s.cos_theta),
+        pixel: sorted_in.par_iter().map(|s| s.pixel).collect(),
     };
+    drop(sorted_in);
 
     // Bin descriptors with their sample ranges and depth bounds.
     let mut bins = Vec::with_capacity(n_bins);

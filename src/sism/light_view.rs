@@ -6,7 +6,8 @@
 //! depth `z = q·axis` (> 0 in front of the face), image-plane position `(u, v) = (x / z, y / z)` on the
 //! plane at distance 1.
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::scene::shapes::orthonormal_basis;
 
@@ -89,13 +90,21 @@ pub fn cube_face_of(q: Vec3) -> usize {
 pub fn fit(points: &[Vec3]) -> (LightView, Vec<u8>) {
     // The mean unit direction is the cone's axis; if every direction is within the half-angle limit of
     // it, one frustum serves. Summation in a fixed order keeps the choice deterministic.
+    // Per-chunk sums in f64, added in chunk order: the same axis for any thread count.
     let mean = points
-        .iter()
-        .fold(Vec3::ZERO, |acc, q| acc + q.normalize_or_zero());
+        .par_chunks(65_536)
+        .map(|c| {
+            c.iter()
+                .fold(DVec3::ZERO, |acc, q| acc + q.normalize_or_zero().as_dvec3())
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold(DVec3::ZERO, |a, b| a + b)
+        .as_vec3();
     if let Some(axis) = mean.try_normalize() {
         let cos_limit = MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG.to_radians().cos();
         if points
-            .iter()
+            .par_iter()
             .all(|q| q.normalize_or_zero().dot(axis) >= cos_limit)
         {
             let (right, up) = orthonormal_basis(axis);
@@ -107,7 +116,7 @@ pub fn fit(points: &[Vec3]) -> (LightView, Vec<u8>) {
         }
     }
     let faces = cube_faces();
-    let ids = points.iter().map(|&q| cube_face_of(q) as u8).collect();
+    let ids = points.par_iter().map(|&q| cube_face_of(q) as u8).collect();
     (LightView { faces, is_cube: true }, ids)
 }
 

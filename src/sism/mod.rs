@@ -218,37 +218,48 @@ fn light_samples(
 ) -> (VisibilityImage, Vec<SampleIn>, Vec<f32>, light_view::LightView) {
     // Per pixel: miss, facing away, or a sample (q relative to the light, cos(theta)). Receivers facing
     // away from the light never enter the grid; one at the light centre has no direction to it and is
-    // treated the same way.
-    let classified: Vec<Option<Option<(Vec3, f32)>>> = receivers
-        .pixels
-        .par_iter()
-        .map(|r| {
-            r.map(|r| {
+    // treated the same way. Rows in parallel, concatenated in row order.
+    let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
+    let width = receivers.width as usize;
+    // Per chunk: (q, cos theta, pixel) of its samples, receivers seen, receivers facing away.
+    type Chunk = (Vec<(Vec3, f32, u32)>, u64, u64);
+    let chunks: Vec<Chunk> = image
+        .values
+        .par_chunks_mut(width * 16)
+        .zip(receivers.pixels.par_chunks(width * 16))
+        .enumerate()
+        .map(|(chunk, (values, pixels))| {
+            let mut out = Vec::new();
+            let (mut seen, mut away) = (0u64, 0u64);
+            for (k, (v, r)) in values.iter_mut().zip(pixels).enumerate() {
+                let Some(r) = r else { continue };
+                seen += 1;
                 let q = r.position - c;
                 let facing = r.normal.dot(-q);
-                (facing > 0.0 && q.length_squared() > 0.0).then(|| (q, (facing / q.length()).min(1.0)))
-            })
+                if facing > 0.0 && q.length_squared() > 0.0 {
+                    *v = 1.0;
+                    out.push((q, (facing / q.length()).min(1.0), (chunk * width * 16 + k) as u32));
+                } else {
+                    *v = V_FACING_AWAY;
+                    away += 1;
+                }
+            }
+            (out, seen, away)
         })
         .collect();
-    let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
-    let mut points = Vec::new();
-    let mut pixels = Vec::new();
-    let mut cosines = Vec::new();
-    for (i, cl) in classified.iter().enumerate() {
-        match cl {
-            None => {}
-            Some(None) => {
-                stats.receivers += 1;
-                stats.receivers_facing_away += 1;
-                image.values[i] = V_FACING_AWAY;
-            }
-            Some(Some((q, cos))) => {
-                stats.receivers += 1;
-                image.values[i] = 1.0;
-                points.push(*q);
-                pixels.push(i as u32);
-                cosines.push(*cos);
-            }
+    let n: usize = chunks.iter().map(|c| c.0.len()).sum();
+    let (mut points, mut cosines, mut pixels) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for (chunk, seen, away) in chunks {
+        stats.receivers += seen;
+        stats.receivers_facing_away += away;
+        for (q, cos, pixel) in chunk {
+            points.push(q);
+            cosines.push(cos);
+            pixels.push(pixel);
         }
     }
     let (view, face_of) = light_view::fit(&points);
@@ -272,14 +283,28 @@ fn light_samples(
     }
     // Width factor per face: the line of sight from a sample through an edge deviates from the axis by
     // at most the sample's own angle plus asin(r / distance).
-    let mut cos_min = vec![1.0f32; view.faces.len()];
-    let mut dist_min = vec![f32::INFINITY; view.faces.len()];
-    for s in &samples {
-        let len = s.q.length();
-        let f = s.face as usize;
-        cos_min[f] = cos_min[f].min(s.depth / len);
-        dist_min[f] = dist_min[f].min(len);
-    }
+    let n_faces = view.faces.len();
+    let (cos_min, dist_min) = samples
+        .par_chunks(65_536)
+        .map(|chunk| {
+            let mut cos_min = vec![1.0f32; n_faces];
+            let mut dist_min = vec![f32::INFINITY; n_faces];
+            for s in chunk {
+                let len = s.q.length();
+                let f = s.face as usize;
+                cos_min[f] = cos_min[f].min(s.depth / len);
+                dist_min[f] = dist_min[f].min(len);
+            }
+            (cos_min, dist_min)
+        })
+        .reduce(
+            || (vec![1.0f32; n_faces], vec![f32::INFINITY; n_faces]),
+            |(a, b), (c, d)| {
+                let min =
+                    |x: Vec<f32>, y: Vec<f32>| x.iter().zip(&y).map(|(p, q)| p.min(*q)).collect::<Vec<f32>>();
+                (min(a, c), min(b, d))
+            },
+        );
     let widen = cos_min
         .iter()
         .zip(&dist_min)
@@ -519,21 +544,13 @@ pub fn report(stats: &SismStats, out: &mut StatsReport) {
         ),
         (
             "penumbra.evaluations_per_sample",
-            if stats.samples > 0 {
-                p.samples_evaluated / stats.samples
-            } else {
-                0
-            },
+            p.samples_evaluated.checked_div(stats.samples).unwrap_or(0),
             "evaluations",
             "Eq. 3 evaluations per sample (integer mean)",
         ),
         (
             "penumbra.evaluations_per_quad",
-            if p.quad_bin_pairs > 0 {
-                p.samples_evaluated / p.quad_bin_pairs
-            } else {
-                0
-            },
+            p.samples_evaluated.checked_div(p.quad_bin_pairs).unwrap_or(0),
             "evaluations",
             "samples evaluated per (bin, quad) pair (integer mean)",
         ),

@@ -158,12 +158,12 @@ impl SceneTopology {
             let component_open: Vec<bool> = (0..n)
                 .map(|r| defects_of[r] as f32 > SOLID_MAX_DEFECTS * edges_of[r] as f32)
                 .collect();
-            for t in 0..n {
+            for (t, &dup) in duplicate.iter().enumerate() {
                 let root = find(&mut parent, t as u32) as usize;
                 topo.component.push(base + root as u32);
                 topo.closed.push(!component_open[root]);
                 topo.triangles.push(mesh.corners(t));
-                topo.duplicate.push(duplicate[t]);
+                topo.duplicate.push(dup);
             }
         }
         topo
