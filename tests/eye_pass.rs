@@ -9,21 +9,14 @@ use sism::reference::cast_primary_rays;
 use sism::scene::{Camera, Light, Mesh, Scene};
 use sism::sism::eye_pass::{eye_pass, eye_pass_with, Exec, EyePassOutput, TASK_TILE, TILE};
 
+// The integration tests' helpers (the shared-scene lookup); this binary uses only some of them.
+#[allow(dead_code)]
+#[path = "integration/util.rs"]
+mod util;
+use util::shared_scenes;
+
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The shared scene folder, or `None` (with a note) outside CI when it is missing.
-fn shared_scenes() -> Option<PathBuf> {
-    let dir = root().join("../shared/scenes");
-    if dir.is_dir() {
-        Some(dir)
-    } else if std::env::var_os("CI").is_some() {
-        panic!("{} is missing: CI must provide ../shared", dir.display());
-    } else {
-        eprintln!("skipping: {} not found", dir.display());
-        None
-    }
 }
 
 fn load(name: &str, width: u32, height: u32) -> Scene {
