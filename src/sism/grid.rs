@@ -13,7 +13,9 @@ use std::ops::Range;
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{as_i32_mut, Kernel, Simd};
+use sism_simd::{as_i32_mut, Kernel, Simd, TaskRecord};
+
+use super::{run_task, Exec};
 
 use super::light_view::LightFace;
 
@@ -186,7 +188,12 @@ impl Grid {
 const CHUNK: usize = 65_536;
 
 /// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it.
-pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> Grid {
+pub fn build(
+    faces: &[LightFace],
+    samples: &[SampleIn],
+    params: &GridParams,
+    exec: Exec,
+) -> (Grid, Vec<TaskRecord>) {
     debug_assert!(
         samples.windows(2).all(|w| w[0].face <= w[1].face),
         "samples grouped by face"
@@ -251,23 +258,26 @@ pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> 
     // Pass 1 (parallel over chunks): bin and local cell of every sample, and per-chunk bin counts.
     let mut bin_of = vec![0u32; samples.len()];
     let mut cell_of = vec![0u32; samples.len()];
-    let chunk_counts: Vec<Vec<u32>> = bin_of
+    let (chunk_counts, mut records): (Vec<Vec<u32>>, Vec<Vec<TaskRecord>>) = bin_of
         .par_chunks_mut(CHUNK)
         .zip(cell_of.par_chunks_mut(CHUNK))
         .zip(samples.par_chunks(CHUNK))
         .map(|((bins_out, cells_out), chunk)| {
             let mut counts = vec![0u32; n_bins];
-            sism_simd::run_native(Classify {
-                samples: chunk,
-                faces: &face_grids,
-                params,
-                bin_out: bins_out,
-                cell_out: cells_out,
-                counts: &mut counts,
-            });
-            counts
+            let ((), rec) = run_task(
+                exec,
+                Classify {
+                    samples: chunk,
+                    faces: &face_grids,
+                    params,
+                    bin_out: bins_out,
+                    cell_out: cells_out,
+                    counts: &mut counts,
+                },
+            );
+            (counts, rec)
         })
-        .collect();
+        .unzip();
 
     // Prefix sum, bin-major then chunk: each chunk's first write position in each bin.
     let mut bin_start = vec![0u32; n_bins + 1];
@@ -287,12 +297,16 @@ pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> 
     for (k, pos) in write_pos.iter_mut().enumerate() {
         let lo = k * CHUNK;
         let hi = (lo + CHUNK).min(samples.len());
-        sism_simd::run_native(ScatterToBins {
-            first_index: lo as u32,
-            bin_of: &bin_of[lo..hi],
-            write_pos: pos,
-            out: &mut by_bin,
-        });
+        let ((), rec) = run_task(
+            exec,
+            ScatterToBins {
+                first_index: lo as u32,
+                bin_of: &bin_of[lo..hi],
+                write_pos: pos,
+                out: &mut by_bin,
+            },
+        );
+        records.push(rec);
     }
 
     // Pass 3 (parallel over bins): counting sort of each bin's samples by cell.
@@ -359,13 +373,14 @@ pub fn build(faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> 
             }
         }
     }
-    Grid {
+    let grid = Grid {
         params: *params,
         faces: face_grids,
         bins,
         cell_start,
         samples: sorted,
-    }
+    };
+    (grid, records.into_iter().flatten().collect())
 }
 
 /// Counting sort of one bin's samples (`members`, global indices) by local cell. Writes the cells'

@@ -15,7 +15,9 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, Simd, TaskRecord};
+
+use super::{run_task, Exec};
 
 use super::binning::BinLists;
 use super::grid::Grid;
@@ -42,23 +44,28 @@ pub struct Inputs<'a> {
 }
 
 /// Visible fraction of every sample (sorted order) under independent composition.
-pub fn visible_fraction(inputs: &Inputs, umbra: &mut UmbraStats, penumbra: &mut PenumbraStats) -> Vec<f32> {
+pub fn visible_fraction(
+    inputs: &Inputs,
+    umbra: &mut UmbraStats,
+    penumbra: &mut PenumbraStats,
+    exec: Exec,
+) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut visible = vec![1f32; inputs.grid.samples.pixel.len()];
-    let counters: Vec<[u64; 4]> = split_by_bins(&mut visible, inputs.grid)
+    let (counters, records): (Vec<[u64; 4]>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut visible, inputs.grid)
         .into_par_iter()
         .enumerate()
         .filter(|(bin, _)| {
             !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
         })
-        .map(|(bin, out)| sism_simd::run_native(OcclusionBin { inputs, bin, out }))
-        .collect();
+        .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
+        .unzip();
     for c in counters {
         umbra.samples_tested += c[0];
         penumbra.rows_culled_by_wedge += c[1];
         penumbra.samples_culled_by_wedge += c[2];
         penumbra.samples_evaluated += c[3];
     }
-    visible
+    (visible, records.into_iter().flatten().collect())
 }
 
 /// One bin of the fused pass.

@@ -58,11 +58,40 @@ pub enum Composition {
     Independent,
 }
 
+/// How kernels execute: natively, or under the counting context (same results bit for bit, plus one
+/// [`sism_simd::TaskRecord`] per task for the machine model).
+pub use eye_pass::Exec;
+
+/// The task records of one phase of a frame, in a fixed task order (never the host's scheduling
+/// order), for the machine model to replay.
+#[derive(Clone, Debug, Default)]
+pub struct PhaseRecords {
+    /// Phase name: `eye_pass`, `grid`, `umbra`, `penumbra`, `resolve` (with the independent
+    /// composition, umbra and penumbra fuse into `occlusion`).
+    pub phase: String,
+    pub tasks: Vec<sism_simd::TaskRecord>,
+}
+
+/// Runs kernel `k` as one task under `exec`, returning its output and its records (none natively).
+#[inline]
+pub fn run_task<K: sism_simd::Kernel>(exec: Exec, k: K) -> (K::Output, Vec<sism_simd::TaskRecord>) {
+    match exec {
+        Exec::Native => (sism_simd::run_native(k), Vec::new()),
+        Exec::Counting => {
+            let recorder = sism_simd::Recorder::new();
+            let out = sism_simd::run_counting(&recorder, k);
+            (out, recorder.take_tasks())
+        }
+    }
+}
+
 /// Settings of the SISM algorithm.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SismOptions {
     pub grid: GridParams,
     pub composition: Composition,
+    /// Native (default) or counting execution.
+    pub exec: Exec,
 }
 
 /// Host wall time of each phase.
@@ -106,6 +135,8 @@ pub struct SismFrame {
     pub receivers: Receivers,
     pub visibility: VisibilityImage,
     pub stats: SismStats,
+    /// Per-phase task records under [`Exec::Counting`]; empty natively.
+    pub records: Vec<PhaseRecords>,
 }
 
 /// Renders one frame of `scene` with SISM.
@@ -114,14 +145,28 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     let light = scene.light;
     let c = light.center();
 
+    let exec = options.exec;
+    let mut records = Vec::new();
+    let mut phase = |name: &str, tasks: Vec<sism_simd::TaskRecord>| {
+        if exec == Exec::Counting {
+            records.push(PhaseRecords {
+                phase: name.to_string(),
+                tasks,
+            });
+        }
+    };
+
     let t = Instant::now();
-    let (receivers, eye_stats) = eye_pass::eye_pass(scene);
-    stats.eye_pass = eye_stats;
+    let eye = eye_pass::eye_pass_with(scene, exec);
+    let receivers = eye.receivers;
+    stats.eye_pass = eye.stats;
     stats.times.eye_pass = t.elapsed();
+    phase("eye_pass", eye.records);
 
     let t = Instant::now();
     let (mut visibility, samples, widen, view) = light_samples(&receivers, c, light.radius, &mut stats);
-    let grid = grid::build(&view.faces, &samples, &options.grid);
+    let (grid, grid_records) = grid::build(&view.faces, &samples, &options.grid, exec);
+    phase("grid", grid_records);
     drop(samples);
     stats.light_faces = view.faces.len() as u64;
     stats.grid_columns = grid
@@ -156,15 +201,29 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     let occlusion = match options.composition {
         Composition::Additive => {
             let t = Instant::now();
-            depth = umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra);
+            let (counts, umbra_records) =
+                umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra, exec);
+            depth = counts;
             stats.times.umbra += t.elapsed();
-            sums = (light.radius > 0.0).then(|| {
+            phase("umbra", umbra_records);
+            let pen = (light.radius > 0.0).then(|| {
                 let t = Instant::now();
                 let lists = quad_lists(&mut stats);
-                let sums =
-                    penumbra::occlusion(&edges, light.radius, &widen, &grid, &lists, &mut stats.penumbra);
+                let out = penumbra::occlusion(
+                    &edges,
+                    light.radius,
+                    &widen,
+                    &grid,
+                    &lists,
+                    &mut stats.penumbra,
+                    exec,
+                );
                 stats.times.penumbra = t.elapsed();
-                sums
+                out
+            });
+            sums = pen.map(|(out, penumbra_records)| {
+                phase("penumbra", penumbra_records);
+                out
             });
             resolve::Occlusion::Additive {
                 umbra: &depth,
@@ -186,24 +245,32 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
                 quad_lists: &lists,
                 widen: &widen,
             };
-            visible = independent::visible_fraction(&inputs, &mut stats.umbra, &mut stats.penumbra);
+            let (fraction, occlusion_records) =
+                independent::visible_fraction(&inputs, &mut stats.umbra, &mut stats.penumbra, exec);
+            visible = fraction;
             stats.times.penumbra = t.elapsed();
+            phase("occlusion", occlusion_records);
             resolve::Occlusion::Visible(&visible)
         }
     };
 
     let t = Instant::now();
-    sism_simd::run_native(resolve::Resolve {
-        grid: &grid,
-        occlusion,
-        light_radius: light.radius,
-        image: &mut visibility,
-    });
+    let ((), resolve_records) = run_task(
+        exec,
+        resolve::Resolve {
+            grid: &grid,
+            occlusion,
+            light_radius: light.radius,
+            image: &mut visibility,
+        },
+    );
     stats.times.resolve = t.elapsed();
+    phase("resolve", resolve_records);
     SismFrame {
         receivers,
         visibility,
         stats,
+        records,
     }
 }
 

@@ -14,7 +14,9 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, Simd, TaskRecord};
+
+use super::{run_task, Exec};
 
 use super::binning::{bin_items, BinLists};
 use super::grid::{FaceGrid, Grid};
@@ -184,30 +186,34 @@ pub fn occlusion(
     grid: &Grid,
     lists: &BinLists,
     stats: &mut PenumbraStats,
-) -> Vec<f32> {
+    exec: Exec,
+) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut sums = vec![0f32; grid.samples.pixel.len()];
-    let counters: Vec<[u64; 3]> = split_by_bins(&mut sums, grid)
+    let (counters, records): (Vec<[u64; 3]>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut sums, grid)
         .into_par_iter()
         .enumerate()
         .filter(|(bin, _)| !lists.of(*bin).is_empty())
         .map(|(bin, out)| {
-            sism_simd::run_native(PenumbraBin {
-                edges,
-                light_radius,
-                widen: widen[grid.bins[bin].face as usize],
-                grid,
-                bin,
-                quads: lists.of(bin),
-                out,
-            })
+            run_task(
+                exec,
+                PenumbraBin {
+                    edges,
+                    light_radius,
+                    widen: widen[grid.bins[bin].face as usize],
+                    grid,
+                    bin,
+                    quads: lists.of(bin),
+                    out,
+                },
+            )
         })
-        .collect();
+        .unzip();
     for c in counters {
         stats.rows_culled_by_wedge += c[0];
         stats.samples_culled_by_wedge += c[1];
         stats.samples_evaluated += c[2];
     }
-    sums
+    (sums, records.into_iter().flatten().collect())
 }
 
 /// Task kind of penumbra bins in counting records.

@@ -12,7 +12,9 @@ use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, Simd, TaskRecord};
+
+use super::{run_task, Exec};
 
 use super::binning::{bin_items, BinLists};
 use super::grid::{FaceGrid, Grid};
@@ -167,25 +169,29 @@ pub fn depth_complexity(
     grid: &Grid,
     lists: &BinLists,
     stats: &mut UmbraStats,
-) -> Vec<i32> {
+    exec: Exec,
+) -> (Vec<i32>, Vec<TaskRecord>) {
     let mut counts = vec![0i32; grid.samples.pixel.len()];
-    let tested: u64 = split_by_bins(&mut counts, grid)
+    let (tested, records): (Vec<u64>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut counts, grid)
         .into_par_iter()
         .enumerate()
         .filter(|(bin, _)| !lists.of(*bin).is_empty())
         .map(|(bin, out)| {
-            sism_simd::run_native(UmbraBin {
-                topo,
-                light_center,
-                grid,
-                bin,
-                triangles: lists.of(bin),
-                out,
-            })
+            run_task(
+                exec,
+                UmbraBin {
+                    topo,
+                    light_center,
+                    grid,
+                    bin,
+                    triangles: lists.of(bin),
+                    out,
+                },
+            )
         })
-        .sum();
-    stats.samples_tested += tested;
-    counts
+        .unzip();
+    stats.samples_tested += tested.iter().sum::<u64>();
+    (counts, records.into_iter().flatten().collect())
 }
 
 /// The per-bin umbra task.

@@ -217,3 +217,37 @@ fn shared_scenes_within_measured_bounds() {
         assert!(r.mae <= bound, "{name}: MAE {} > {bound}", r.mae);
     }
 }
+
+#[test]
+fn counting_execution_gives_the_same_bits_and_records_every_phase() {
+    let scene = load("sphere.toml", 128, 96);
+    for composition in [Composition::Additive, Composition::Independent] {
+        let native = sism_frame(&scene, composition);
+        let options = SismOptions {
+            composition,
+            exec: sism::sism::Exec::Counting,
+            ..Default::default()
+        };
+        let counted = render_frame(&scene, &PreparedScene::new(&scene), &options);
+        let bits = |f: &SismFrame| {
+            f.visibility
+                .values
+                .iter()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&native), bits(&counted), "{composition:?}");
+        assert!(native.records.is_empty());
+        let phases: Vec<&str> = counted.records.iter().map(|p| p.phase.as_str()).collect();
+        let expected: &[&str] = match composition {
+            Composition::Additive => &["eye_pass", "grid", "umbra", "penumbra", "resolve"],
+            Composition::Independent => &["eye_pass", "grid", "occlusion", "resolve"],
+        };
+        assert_eq!(phases, expected);
+        for p in &counted.records {
+            assert!(!p.tasks.is_empty(), "{}", p.phase);
+            let instructions: u64 = p.tasks.iter().map(|t| t.counters.instructions()).sum();
+            assert!(instructions > 0, "{}", p.phase);
+        }
+    }
+}
