@@ -37,6 +37,7 @@ pub struct Inputs<'a> {
     pub grid: &'a Grid,
     pub triangle_lists: &'a BinLists,
     pub edges: &'a [EdgeRecord],
+    /// Object of each edge record (see `SceneTopology::object`).
     pub edge_components: &'a [u32],
     pub quad_lists: &'a BinLists,
     /// Per light face, `1 / cos(alpha)` for quad widths.
@@ -95,7 +96,7 @@ impl Kernel for OcclusionBin<'_> {
             .triangle_lists
             .of(bin)
             .iter()
-            .map(|&t| (inp.topo.component[t as usize], 0u8, t))
+            .map(|&t| (inp.topo.object[t as usize], 0u8, t))
             .chain(
                 inp.quad_lists
                     .of(bin)

@@ -187,7 +187,7 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
 
     let (edges, edge_components) = if light.radius > 0.0 {
         let t = Instant::now();
-        let silhouettes = topo.silhouettes_with_components(c);
+        let silhouettes = topo.silhouettes_by_object(c, options.composition == Composition::Independent);
         stats.times.silhouettes = t.elapsed();
         silhouettes
     } else {

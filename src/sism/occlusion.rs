@@ -97,6 +97,13 @@ pub const H_MIN_FRACTION: f32 = 1e-5;
 /// fractions of the disk.
 const INV_2PI: f32 = 0.159_154_94;
 
+/// A receiver within this angle (radians, as a sine, seen from the edge's first endpoint) of an
+/// adjacent triangle's plane sees that triangle edge-on: it covers no area and contributes 0.
+/// `s3 = m·(v3 - p) = ±n·(p - a)` with `n = (b - a) × (v3 - a)`, so the test is
+/// `|s3| ≤ sin |n| |p - a|` (unsquared: s3 reaches 1e24 at the stress suite's coordinates). Without it, a receiver on the triangle's own plane (on a face next
+/// to its own silhouette edge) gets a sign decided by rounding noise.
+pub const EDGE_ON_SINE: f32 = 1e-4;
+
 /// One silhouette edge as the penumbra stage hands it to the kernel, **relative to the light
 /// centre** (world units).
 ///
@@ -217,6 +224,20 @@ fn rel<S: Simd>(s: S, x: [f32; 3], p: V3<S>) -> V3<S> {
     ]
 }
 
+/// `|(b - a) × (v3 - a)|²`: the squared normal length of the triangle `(a, b, v3)`, f32, computed
+/// the same way for every backend (a per-edge constant).
+#[inline(always)]
+fn plane_normal_len2(a: [f32; 3], b: [f32; 3], v3: [f32; 3]) -> f32 {
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let w = [v3[0] - a[0], v3[1] - a[1], v3[2] - a[2]];
+    let n = [
+        u[1] * w[2] - u[2] * w[1],
+        u[2] * w[0] - u[0] * w[2],
+        u[0] * w[1] - u[1] * w[0],
+    ];
+    n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+}
+
 /// Signed penumbra term of one edge for 16 samples at once.
 ///
 /// `px, py, pz`: sample (receiver) positions relative to the light centre, world units, finite.
@@ -301,14 +322,19 @@ pub fn edge_term<S: Simd>(
     let sc_neg = s.cmp_lt_f(sc, zero);
     let nt = s.neg_f(t);
     let mut acc = zero;
+    let pa = s.sqrt_f(dot3(s, ea, ea));
     for v3 in &e.v3[..if e.n_tri > 1 { 2 } else { 1 }] {
-        let s3 = dot3(s, mv, rel(s, *v3, p));
+        let v = rel(s, *v3, p);
+        let s3 = dot3(s, mv, v);
+        let tol = s.splat_f(EDGE_ON_SINE * plane_normal_len2(e.a, e.b, *v3).sqrt());
         let same = s.mask_or(
             s.mask_and(sc_pos, s.cmp_gt_f(s3, zero)),
             s.mask_and(sc_neg, s.cmp_lt_f(s3, zero)),
         );
         let signed = s.select_f(same, nt, t);
-        let signed = s.select_f(s.cmp_eq_f(s3, zero), zero, signed);
+        // Edge-on: s3^2 <= sin^2 |m|^2 |v3 - p|^2.
+        let edge_on = s.cmp_le_f(s.abs_f(s3), s.mul_f(tol, pa));
+        let signed = s.select_f(edge_on, zero, signed);
         acc = s.add_f(acc, signed);
     }
     s.select_f(valid, acc, zero)
@@ -452,10 +478,13 @@ pub fn edge_term_scalar(p: [f32; 3], e: &EdgeRecord, light_radius: f32) -> f32 {
     let theta = atan2_mirror(dw, lo.mul_add(hi, dist * dist));
     let t = clamp1((theta - dw) * INV_2PI, 0.0, 0.5);
     let mut acc = 0.0f32;
+    let pa = dot1(ea, ea).sqrt();
     for v3 in &e.v3[..if e.n_tri > 1 { 2 } else { 1 }] {
-        let s3 = dot1(mv, rel1(*v3, p));
+        let v = rel1(*v3, p);
+        let s3 = dot1(mv, v);
         let same = (sc >= 0.0 && s3 > 0.0) || (sc < 0.0 && s3 < 0.0);
-        let signed = if s3 == 0.0 {
+        let tol = EDGE_ON_SINE * plane_normal_len2(e.a, e.b, *v3).sqrt();
+        let signed = if s3.abs() <= tol * pa {
             0.0
         } else if same {
             -t
@@ -582,7 +611,10 @@ fn tri_sign64(p: D3, a: D3, b: D3, v3: D3) -> f64 {
     let m = cross64(sub64(a, p), sub64(b, p));
     let sc = dot64(m, scale64(p, -1.0));
     let s3 = dot64(m, sub64(v3, p));
-    if s3 == 0.0 {
+    let n = cross64(sub64(b, a), sub64(v3, a));
+    let pa = sub64(p, a);
+    let tol = EDGE_ON_SINE as f64;
+    if s3.abs() <= tol * dot64(n, n).sqrt() * dot64(pa, pa).sqrt() {
         0.0
     } else if (sc >= 0.0 && s3 > 0.0) || (sc < 0.0 && s3 < 0.0) {
         -1.0

@@ -26,6 +26,9 @@ use crate::scene::Scene;
 /// boundary. 5%: between the two.
 pub const SOLID_MAX_DEFECTS: f32 = 0.05;
 
+/// Largest angle between two triangles' normals across an edge for them to be one patch (degrees).
+pub const PATCH_MAX_ANGLE_DEG: f32 = 60.0;
+
 /// An edge and the triangles using it.
 #[derive(Clone, Copy, Debug)]
 pub struct EdgeTopology {
@@ -53,9 +56,14 @@ pub struct SceneTopology {
     pub duplicate: Vec<bool>,
     /// Number of duplicates found.
     pub duplicates: u32,
-    /// Connected component (triangles joined through shared edges) of every triangle: the "objects"
-    /// of the independent-occluder composition. Unique across meshes.
+    /// Connected component (triangles joined through shared edges) of every triangle. Unique across
+    /// meshes.
     pub component: Vec<u32>,
+    /// Occluder ("object") of every triangle for the independent-occluder composition: a solid
+    /// component is one object; an open component is cut into smooth patches, joined only across
+    /// edges whose two triangles' normals agree within [`PATCH_MAX_ANGLE_DEG`] (a leaf, not the
+    /// cluster of leaves it hangs in, which overlap one another like separate occluders).
+    pub object: Vec<u32>,
     pub edges: Vec<EdgeTopology>,
     /// For each edge's triangles: (triangle index, the triangle's vertex opposite the edge).
     pub edge_triangles: Vec<(u32, Vec3)>,
@@ -109,6 +117,7 @@ impl SceneTopology {
             let n = mesh.triangles.len();
             let mut parent: Vec<u32> = (0..n as u32).collect();
             let mut defective = Vec::new(); // per edge of this mesh: not two consistently oriented uses
+            let mut smooth_pairs = Vec::new(); // per edge: its two triangles when they form one patch
             let mut run = 0;
             while run < uses.len() {
                 let mut end = run + 1;
@@ -135,6 +144,17 @@ impl SceneTopology {
                 });
                 let consistent = group.len() == 2 && group[0].3 != group[1].3;
                 defective.push(!consistent);
+                let smooth = group.len() == 2 && {
+                    let normal = |t: u32| {
+                        let [p, q, r] = mesh.corners(t as usize);
+                        (q - p).cross(r - p).normalize_or_zero()
+                    };
+                    // Inconsistent winding flips one normal: compare orientation-free then.
+                    let d = normal(group[0].2).dot(normal(group[1].2));
+                    let d = if consistent { d } else { d.abs() };
+                    d >= PATCH_MAX_ANGLE_DEG.to_radians().cos()
+                };
+                smooth_pairs.push(smooth.then(|| (group[0].2, group[1].2)));
                 if group.len() == 1 {
                     topo.open_edges += 1;
                 } else if group.len() > 2 {
@@ -158,8 +178,18 @@ impl SceneTopology {
             let component_open: Vec<bool> = (0..n)
                 .map(|r| defects_of[r] as f32 > SOLID_MAX_DEFECTS * edges_of[r] as f32)
                 .collect();
+            let mut patch: Vec<u32> = (0..n as u32).collect();
+            for &(a, b) in smooth_pairs.iter().flatten() {
+                union(&mut patch, a, b);
+            }
             for (t, &dup) in duplicate.iter().enumerate() {
                 let root = find(&mut parent, t as u32) as usize;
+                let object = if component_open[root] {
+                    find(&mut patch, t as u32)
+                } else {
+                    root as u32
+                };
+                topo.object.push(base + object);
                 topo.component.push(base + root as u32);
                 topo.closed.push(!component_open[root]);
                 topo.triangles.push(mesh.corners(t));
@@ -177,24 +207,23 @@ impl SceneTopology {
 
     /// The silhouette edges with respect to the light centre `c`, as kernel records relative to `c`.
     pub fn silhouettes(&self, c: Vec3) -> Vec<EdgeRecord> {
-        self.silhouettes_with_components(c).0
+        self.silhouettes_by_object(c, false).0
     }
 
-    /// [`Self::silhouettes`] and the component of each record.
-    pub fn silhouettes_with_components(&self, c: Vec3) -> (Vec<EdgeRecord>, Vec<u32>) {
+    /// [`Self::silhouettes`] and the object ([`Self::object`]) of each record. With `per_object`, an
+    /// edge between two objects gives each its own record even where their terms would cancel: the
+    /// independent composition evaluates objects apart, so nothing cancels across them.
+    pub fn silhouettes_by_object(&self, c: Vec3, per_object: bool) -> (Vec<EdgeRecord>, Vec<u32>) {
         let per_chunk: Vec<(Vec<EdgeRecord>, Vec<u32>)> = self
             .edges
             .par_chunks(4096)
             .map(|chunk| {
                 let mut out = Vec::new();
-                let mut components = Vec::new();
+                let mut objects = Vec::new();
                 for e in chunk {
-                    let before = out.len();
-                    self.edge_records(e, c, &mut out);
-                    components.resize(out.len(), e.component);
-                    debug_assert!(out.len() >= before);
+                    self.edge_records(e, c, per_object, &mut out, &mut objects);
                 }
-                (out, components)
+                (out, objects)
             })
             .collect();
         let mut records = Vec::new();
@@ -206,33 +235,43 @@ impl SceneTopology {
         (records, components)
     }
 
-    fn edge_records(&self, e: &EdgeTopology, c: Vec3, out: &mut Vec<EdgeRecord>) {
+    fn edge_records(
+        &self,
+        e: &EdgeTopology,
+        c: Vec3,
+        per_object: bool,
+        out: &mut Vec<EdgeRecord>,
+        objects: &mut Vec<u32>,
+    ) {
         let tris = &self.edge_triangles[e.first as usize..(e.first + e.count) as usize];
-        let counted: Vec<Vec3> = tris
+        let counted: Vec<(Vec3, u32)> = tris
             .iter()
             .filter(|(t, _)| self.counts(*t as usize, c))
-            .map(|&(_, v3)| v3)
+            .map(|&(t, v3)| (v3, self.object[t as usize]))
             .collect();
         let rel = |p: Vec3| (p - c).to_array();
-        let record = |v3: &[Vec3]| EdgeRecord {
-            a: rel(e.a),
-            b: rel(e.b),
-            v3: [rel(v3[0]), rel(*v3.get(1).unwrap_or(&v3[0]))],
-            n_tri: v3.len() as u32,
+        let mut push = |v3: &[Vec3], object: u32| {
+            out.push(EdgeRecord {
+                a: rel(e.a),
+                b: rel(e.b),
+                v3: [rel(v3[0]), rel(*v3.get(1).unwrap_or(&v3[0]))],
+                n_tri: v3.len() as u32,
+            });
+            objects.push(object);
         };
         match (e.count, counted.len()) {
             (_, 0) => {}
-            (2, 2) => {
+            (2, 2) if !per_object || counted[0].1 == counted[1].1 => {
                 // Same side of the edge as seen from the light: a fold, the terms add (silhouette).
                 // Opposite sides: the terms cancel, nothing to do.
                 let m = (e.a - c).cross(e.b - c);
-                if m.dot(counted[0] - c) * m.dot(counted[1] - c) >= 0.0 {
-                    out.push(record(&counted));
+                if m.dot(counted[0].0 - c) * m.dot(counted[1].0 - c) >= 0.0 {
+                    push(&[counted[0].0, counted[1].0], counted[0].1);
                 }
             }
             (_, _) => {
-                for v3 in &counted {
-                    out.push(record(std::slice::from_ref(v3)));
+                for &(v3, object) in &counted {
+                    push(&[v3], object);
                 }
             }
         }
