@@ -5,6 +5,7 @@ pub mod bench_cmd;
 pub mod bvh;
 pub mod error;
 pub mod frame;
+pub mod machine;
 pub mod metrics;
 pub mod output;
 pub mod progress;

@@ -1,0 +1,227 @@
+//! A set-associative cache with true LRU replacement, write-allocate and write-back (dirty lines
+//! are counted when evicted), and the remapping of recorded line addresses to compact ids.
+//!
+//! ## Why lines are remapped
+//!
+//! The counting context records real virtual line numbers of the host process (`address >> 6`).
+//! They change from run to run (ASLR, the allocator's choices, thread timing in allocation), and the
+//! set a line falls into depends on its low bits: timing raw addresses would make simulated cycles
+//! differ between two identical renders. [`LineIds`] gives every distinct line a compact id in the
+//! order it is first touched over the whole frame (phases in order, tasks in record order, accesses
+//! in stream order). That order is a property of the records alone, so simulated figures are the
+//! same for every run of the same render and every replay of the same file. A streaming pass over
+//! an array touches new lines in order, so it still receives consecutive ids and fills consecutive
+//! sets, as contiguous memory does; what is lost is only the relative placement of unrelated
+//! arrays (which would conflict in a real cache by accident of addresses).
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Multiply-shift hasher for `u64` keys (the std SipHash is several times slower here, and no key
+/// comes from an adversary).
+#[derive(Default, Clone, Copy)]
+pub struct LineHasher(u64);
+
+impl Hasher for LineHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        let x = (v ^ (v >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        self.0 = x ^ (x >> 32);
+    }
+}
+
+/// Compact line ids in first-touch order (see the module documentation).
+#[derive(Default, Clone)]
+pub struct LineIds {
+    map: HashMap<u64, u32, BuildHasherDefault<LineHasher>>,
+}
+
+impl LineIds {
+    /// An empty map.
+    pub fn new() -> LineIds {
+        LineIds::default()
+    }
+    /// The id of `line`, assigning the next free id on first touch.
+    #[inline]
+    pub fn id(&mut self, line: u64) -> u32 {
+        let next = self.map.len() as u32;
+        *self.map.entry(line).or_insert(next)
+    }
+    /// Distinct lines seen so far.
+    pub fn len(&self) -> usize {
+        self.map.len()
+    }
+    /// No line seen yet?
+    pub fn is_empty(&self) -> bool {
+        self.map.is_empty()
+    }
+}
+
+/// Result of one cache access.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Access {
+    /// The line was present.
+    pub hit: bool,
+    /// A dirty line was evicted to make room (a write-back to the next level).
+    pub writeback: bool,
+}
+
+const EMPTY: u32 = u32::MAX;
+
+/// A set-associative LRU cache over compact line ids.
+#[derive(Clone, Debug)]
+pub struct Cache {
+    set_mask: u32,
+    ways: usize,
+    /// `sets × ways` resident line ids (`EMPTY` when free).
+    tags: Vec<u32>,
+    /// Last-use time of each way (larger = more recent).
+    stamps: Vec<u64>,
+    dirty: Vec<bool>,
+    clock: u64,
+}
+
+impl Cache {
+    /// A cache of `bytes` capacity, `ways`-way set-associative, `line_bytes` lines. The number of
+    /// sets must be a power of two (checked by `MachineConfig::validate`).
+    pub fn new(bytes: u64, ways: u32, line_bytes: u32) -> Cache {
+        let lines = (bytes / line_bytes as u64).max(1);
+        let ways = (ways as u64).clamp(1, lines) as usize;
+        let sets = (lines / ways as u64).max(1);
+        assert!(
+            sets.is_power_of_two(),
+            "cache sets must be a power of two, got {sets}"
+        );
+        let n = sets as usize * ways;
+        Cache {
+            set_mask: sets as u32 - 1,
+            ways,
+            tags: vec![EMPTY; n],
+            stamps: vec![0; n],
+            dirty: vec![false; n],
+            clock: 0,
+        }
+    }
+
+    /// Number of sets.
+    pub fn sets(&self) -> usize {
+        self.set_mask as usize + 1
+    }
+
+    /// Accesses `line` (a read, or a write when `write`): on a hit it becomes most recently used; on
+    /// a miss it is allocated in its set over the least recently used way (a free way first).
+    #[inline]
+    pub fn access(&mut self, line: u32, write: bool) -> Access {
+        self.clock += 1;
+        let base = (line & self.set_mask) as usize * self.ways;
+        let tags = &self.tags[base..base + self.ways];
+        if let Some(w) = tags.iter().position(|&t| t == line) {
+            self.stamps[base + w] = self.clock;
+            self.dirty[base + w] |= write;
+            return Access {
+                hit: true,
+                writeback: false,
+            };
+        }
+        // Victim: the first free way, else the least recently used (lowest way on ties, which
+        // cannot happen since stamps are unique once set).
+        let mut victim = 0;
+        let mut oldest = u64::MAX;
+        for w in 0..self.ways {
+            if self.tags[base + w] == EMPTY {
+                victim = w;
+                break;
+            }
+            if self.stamps[base + w] < oldest {
+                oldest = self.stamps[base + w];
+                victim = w;
+            }
+        }
+        let i = base + victim;
+        let writeback = self.tags[i] != EMPTY && self.dirty[i];
+        self.tags[i] = line;
+        self.stamps[i] = self.clock;
+        self.dirty[i] = write;
+        Access {
+            hit: false,
+            writeback,
+        }
+    }
+
+    /// Is `line` resident (no state change)?
+    pub fn contains(&self, line: u32) -> bool {
+        let base = (line & self.set_mask) as usize * self.ways;
+        self.tags[base..base + self.ways].contains(&line)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn direct_mapped_conflicts() {
+        // 4 lines of 64 B, 1 way: 4 sets; lines 0 and 4 share set 0.
+        let mut c = Cache::new(256, 1, 64);
+        assert_eq!(c.sets(), 4);
+        assert!(!c.access(0, false).hit);
+        assert!(!c.access(4, false).hit);
+        assert!(!c.access(0, false).hit);
+        assert!(!c.access(1, false).hit);
+        assert!(c.access(1, false).hit);
+        assert!(c.access(0, false).hit);
+    }
+
+    #[test]
+    fn two_way_lru() {
+        // 4 lines, 2 ways: 2 sets. Even lines in set 0.
+        let mut c = Cache::new(256, 2, 64);
+        assert_eq!(c.sets(), 2);
+        assert!(!c.access(0, false).hit); // set 0: [0]
+        assert!(!c.access(2, false).hit); // [0, 2]
+        assert!(c.access(0, false).hit); // 0 most recent
+        assert!(!c.access(4, false).hit); // evicts 2 (LRU)
+        assert!(c.contains(0) && c.contains(4) && !c.contains(2));
+        assert!(!c.access(2, false).hit); // evicts 0
+        assert!(!c.contains(0));
+    }
+
+    #[test]
+    fn dirty_writeback() {
+        let mut c = Cache::new(128, 1, 64); // 2 sets, direct mapped
+        assert_eq!(
+            c.access(0, true),
+            Access {
+                hit: false,
+                writeback: false
+            }
+        );
+        // Line 2 evicts dirty line 0.
+        assert_eq!(
+            c.access(2, false),
+            Access {
+                hit: false,
+                writeback: true
+            }
+        );
+        // Line 0 evicts clean line 2.
+        assert!(!c.access(0, false).writeback);
+    }
+
+    #[test]
+    fn ids_first_touch() {
+        let mut ids = LineIds::new();
+        assert_eq!(ids.id(0x7fff_1234), 0);
+        assert_eq!(ids.id(0x10), 1);
+        assert_eq!(ids.id(0x7fff_1234), 0);
+        assert_eq!(ids.id(0x11), 2);
+        assert_eq!(ids.len(), 3);
+    }
+}

@@ -1,0 +1,331 @@
+//! The modelled chip: a Larrabee-style many-core with in-order cores, hardware threads, a 16-wide
+//! vector unit, a private L1 and a local L2 subset per core, joined by a bidirectional ring.
+//!
+//! What is public about Larrabee comes from Seiler et al. 2008, "Larrabee: a many-core x86
+//! architecture for visual computing" (SIGGRAPH 2008): in-order x86 cores, 4 hardware threads per
+//! core, a 16-wide vector unit, a 32 KB L1 data cache, a 256 KB local subset of the coherent L2 per
+//! core, a bidirectional ring 512 bits wide per direction per clock, one vector and one scalar
+//! instruction issued per clock (the dual-issue pipeline). Johnson et al. 2009 simulated 24 cores at
+//! 1 GHz. Latencies, associativities, DRAM figures and the costs of atomics, barriers, gathers and
+//! transcendentals were never published: every such default below is an **assumption**, chosen from
+//! contemporary in-order x86 parts (Atom, Pentium) and Larrabee-era GPUs, and labelled as such.
+//!
+//! A machine file is TOML. It may start from a preset with `base = "larrabee-24"` (the default base
+//! when `base` is absent) and override any field; unknown keys are errors that name the key.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// Names of the presets, in order.
+pub const PRESETS: &[&str] = &[
+    "larrabee-8",
+    "larrabee-16",
+    "larrabee-24",
+    "larrabee-32",
+    "larrabee-48",
+    "larrabee-64",
+];
+
+/// A configurable Larrabee-style chip. All cycle figures are core clock cycles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineConfig {
+    /// Name of the configuration (a preset's name, or the user's).
+    pub name: String,
+    /// Cores on the ring. Larrabee: 8–48 were discussed (Seiler 2008); the paper simulated 24.
+    pub cores: u32,
+    /// Hardware threads per core (Seiler 2008: 4). They hide memory latency (see `timing`).
+    pub threads_per_core: u32,
+    /// Vector lanes, 32-bit each (Seiler 2008: 16). The recorded kernels are 16-wide: must be 16.
+    pub simd_width: u32,
+    /// Core clock, GHz (Johnson 2009: 1 GHz).
+    pub clock_ghz: f64,
+    /// Vector instructions issued per clock per core (Seiler 2008: 1, the U pipe).
+    pub vector_issue_per_clock: u32,
+    /// Scalar (and mask) instructions issued per clock per core, beside the vector one (Seiler 2008:
+    /// dual issue, 1).
+    pub scalar_issue_per_clock: u32,
+    /// L1 data cache per core, KB (Seiler 2008: 32 KB).
+    pub l1_kb: u32,
+    /// L1 associativity, ways. Assumption: 8 (typical of 32 KB x86 L1D caches of the time).
+    pub l1_ways: u32,
+    /// L1 hit latency, cycles. Assumption: 0 extra — the in-order pipeline is built around the L1
+    /// load-to-use latency, which the issue model already pays.
+    pub l1_latency: u32,
+    /// Local L2 subset per core, KB (Seiler 2008: 256 KB).
+    pub l2_kb: u32,
+    /// L2 associativity, ways. Assumption: 8.
+    pub l2_ways: u32,
+    /// Latency of an L1 miss that hits the local L2 subset, cycles. Assumption: 10 (Seiler 2008 only
+    /// says the local subset is fast; Atom's L2 is ~15, Pentium's ~10).
+    pub l2_latency: u32,
+    /// Cache line, bytes (Seiler 2008: 64). Records hold 64-byte lines: must be 64.
+    pub line_bytes: u32,
+    /// Latency per ring stop travelled, cycles. Assumption: 2 (one clock per stop each way is the
+    /// usual ring design; ×2 for request and reply folded in per hop).
+    pub ring_hop_latency: u32,
+    /// Ring width per direction, bytes per clock (Seiler 2008: 512 bits = 64 bytes).
+    pub ring_bytes_per_clock: u32,
+    /// DRAM access latency beyond the ring, ns. Assumption: 100 ns (GDDR5-era GPUs, ~400–600 core
+    /// clocks at 1 GHz as seen by a thread in total, of which the DRAM part is ~100 ns).
+    pub dram_latency_ns: f64,
+    /// DRAM bandwidth of the whole chip, GB/s. Assumption: 128 GB/s (GDDR5 on a 256-bit bus, as on
+    /// GPUs of 2009–2010).
+    pub dram_bandwidth_gbs: f64,
+    /// Cost of one vector atomic (fetch-add) instruction, cycles. Assumption: 8 (a locked RMW on the
+    /// L1 line; conflict-free lanes combine in one pass).
+    pub atomic_cycles: u32,
+    /// Extra cost per conflicting lane of a vector atomic (a lane whose address repeats an earlier
+    /// lane), cycles. Assumption: 4 (one serialised pass per conflict).
+    pub atomic_conflict_cycles: u32,
+    /// Cost of the barrier ending each phase, cycles. Assumption: 2000 (a ring-wide flag
+    /// reduction, ~2 µs at 1 GHz, in line with software barriers on many-core x86).
+    pub barrier_cycles: u32,
+    /// Gather or scatter cost per distinct cache line the instruction touches, cycles (Seiler 2008:
+    /// gathers proceed one cache line per clock at best). Assumption: 1.
+    pub gather_cycles_per_line: u32,
+    /// Issue cost of one transcendental (div, sqrt, rcp, rsqrt) vector instruction, cycles.
+    /// Assumption: 4 (an unpipelined multi-cycle op on the VPU).
+    pub transcendental_cycles: u32,
+}
+
+impl MachineConfig {
+    /// A preset by name (`larrabee-8/16/24/32/48/64`).
+    pub fn preset(name: &str) -> Option<MachineConfig> {
+        let cores = match name {
+            "larrabee-8" => 8,
+            "larrabee-16" => 16,
+            "larrabee-24" => 24,
+            "larrabee-32" => 32,
+            "larrabee-48" => 48,
+            "larrabee-64" => 64,
+            _ => return None,
+        };
+        Some(MachineConfig {
+            name: name.to_string(),
+            cores,
+            ..MachineConfig::larrabee_24()
+        })
+    }
+
+    /// The paper's chip: 24 cores at 1 GHz.
+    pub fn larrabee_24() -> MachineConfig {
+        MachineConfig {
+            name: "larrabee-24".into(),
+            cores: 24,
+            threads_per_core: 4,
+            simd_width: 16,
+            clock_ghz: 1.0,
+            vector_issue_per_clock: 1,
+            scalar_issue_per_clock: 1,
+            l1_kb: 32,
+            l1_ways: 8,
+            l1_latency: 0,
+            l2_kb: 256,
+            l2_ways: 8,
+            l2_latency: 10,
+            line_bytes: 64,
+            ring_hop_latency: 2,
+            ring_bytes_per_clock: 64,
+            dram_latency_ns: 100.0,
+            dram_bandwidth_gbs: 128.0,
+            atomic_cycles: 8,
+            atomic_conflict_cycles: 4,
+            barrier_cycles: 2000,
+            gather_cycles_per_line: 1,
+            transcendental_cycles: 4,
+        }
+    }
+
+    /// A preset name, or else a TOML machine file.
+    pub fn resolve(preset_or_file: &str) -> anyhow::Result<MachineConfig> {
+        if let Some(c) = MachineConfig::preset(preset_or_file) {
+            return Ok(c);
+        }
+        let path = Path::new(preset_or_file);
+        if !path.exists() {
+            anyhow::bail!(
+                "machine `{preset_or_file}` is neither a preset ({}) nor an existing file",
+                PRESETS.join(", ")
+            );
+        }
+        MachineConfig::load(path)
+    }
+
+    /// Reads a machine TOML file (see the module documentation).
+    pub fn load(path: &Path) -> anyhow::Result<MachineConfig> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("cannot read machine file {}: {e}", path.display()))?;
+        let default_name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "custom".into());
+        MachineConfig::from_toml(&text, &default_name)
+            .map_err(|e| anyhow::anyhow!("machine file {}: {e}", path.display()))
+    }
+
+    /// Parses machine TOML text; `default_name` names the result when the text has no `name`.
+    /// Errors name the offending key.
+    pub fn from_toml(text: &str, default_name: &str) -> Result<MachineConfig, String> {
+        let mut user: toml::Table = toml::from_str(text).map_err(|e| e.message().to_string())?;
+        let base_name = match user.remove("base") {
+            None => "larrabee-24".to_string(),
+            Some(toml::Value::String(s)) => s,
+            Some(v) => {
+                return Err(format!(
+                    "`base` must be a preset name string, not {}",
+                    v.type_str()
+                ))
+            }
+        };
+        let base = MachineConfig::preset(&base_name).ok_or_else(|| {
+            format!(
+                "`base` = \"{base_name}\" is not a preset (presets: {})",
+                PRESETS.join(", ")
+            )
+        })?;
+        let mut merged = toml::Table::try_from(&base).map_err(|e| e.to_string())?;
+        merged.insert("name".into(), toml::Value::String(default_name.into()));
+        for (key, value) in user {
+            let Some(slot) = merged.get(&key) else {
+                let known: Vec<&str> = merged.keys().map(|k| k.as_str()).collect();
+                return Err(format!(
+                    "unknown key `{key}` (known keys: base, {})",
+                    known.join(", ")
+                ));
+            };
+            let value = match (slot, value) {
+                (toml::Value::Float(_), toml::Value::Integer(i)) => toml::Value::Float(i as f64),
+                (toml::Value::Integer(_), toml::Value::Integer(i)) if i < 0 || i > u32::MAX as i64 => {
+                    return Err(format!("`{key}` = {i} is out of range (0..=4294967295)"));
+                }
+                (s, v) if s.type_str() != v.type_str() => {
+                    return Err(format!(
+                        "`{key}` must be {} {}, not {}",
+                        if s.type_str() == "integer" { "an" } else { "a" },
+                        s.type_str(),
+                        v.type_str()
+                    ));
+                }
+                (_, v) => v,
+            };
+            merged.insert(key, value);
+        }
+        let config: MachineConfig = merged
+            .try_into()
+            .map_err(|e: toml::de::Error| e.message().to_string())?;
+        config.validate().map_err(|(key, msg)| format!("`{key}` {msg}"))?;
+        Ok(config)
+    }
+
+    /// Checks every value; on failure returns the key and what is wrong.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let positive: [(&'static str, u32); 14] = [
+            ("cores", self.cores),
+            ("threads_per_core", self.threads_per_core),
+            ("vector_issue_per_clock", self.vector_issue_per_clock),
+            ("scalar_issue_per_clock", self.scalar_issue_per_clock),
+            ("l1_kb", self.l1_kb),
+            ("l1_ways", self.l1_ways),
+            ("l2_kb", self.l2_kb),
+            ("l2_ways", self.l2_ways),
+            ("ring_bytes_per_clock", self.ring_bytes_per_clock),
+            ("atomic_cycles", self.atomic_cycles),
+            ("gather_cycles_per_line", self.gather_cycles_per_line),
+            ("transcendental_cycles", self.transcendental_cycles),
+            ("simd_width", self.simd_width),
+            ("line_bytes", self.line_bytes),
+        ];
+        for (key, v) in positive {
+            if v == 0 {
+                return Err((key, "must be at least 1".into()));
+            }
+        }
+        if self.cores > 4096 {
+            return Err(("cores", format!("= {} is more than 4096", self.cores)));
+        }
+        if self.simd_width != 16 {
+            return Err((
+                "simd_width",
+                format!(
+                    "= {}: the recorded kernels are 16-wide, so it must be 16",
+                    self.simd_width
+                ),
+            ));
+        }
+        if self.line_bytes != 64 {
+            return Err((
+                "line_bytes",
+                format!(
+                    "= {}: the records hold 64-byte lines, so it must be 64",
+                    self.line_bytes
+                ),
+            ));
+        }
+        for (key, kb, ways) in [("l1", self.l1_kb, self.l1_ways), ("l2", self.l2_kb, self.l2_ways)] {
+            let lines = kb as u64 * 1024 / self.line_bytes as u64;
+            if lines % ways as u64 != 0 || !(lines / ways as u64).is_power_of_two() {
+                return Err((
+                    if key == "l1" { "l1_kb" } else { "l2_kb" },
+                    format!(
+                        "= {kb} with {ways} ways gives {} sets: the sets must be a power of two",
+                        lines as f64 / ways as f64
+                    ),
+                ));
+            }
+        }
+        for (key, v) in [
+            ("clock_ghz", self.clock_ghz),
+            ("dram_bandwidth_gbs", self.dram_bandwidth_gbs),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err((key, format!("= {v} must be a positive number")));
+            }
+        }
+        if !(self.dram_latency_ns.is_finite() && self.dram_latency_ns >= 0.0) {
+            return Err(("dram_latency_ns", "must be a number ≥ 0".into()));
+        }
+        Ok(())
+    }
+
+    /// The resolved configuration as TOML (what `machine.toml` holds), with a header comment.
+    pub fn to_toml(&self) -> String {
+        format!(
+            "# Resolved sism machine configuration. Units: see sism::machine::config::MachineConfig.\n\
+             # Latencies and costs are assumptions (Larrabee's were never published).\n{}",
+            toml::to_string(self).expect("plain struct serialises")
+        )
+    }
+
+    /// Core cycles per nanosecond.
+    pub fn cycles_per_ns(&self) -> f64 {
+        self.clock_ghz
+    }
+    /// Milliseconds of `cycles` at the clock.
+    pub fn ms(&self, cycles: u64) -> f64 {
+        cycles as f64 / (self.clock_ghz * 1e6)
+    }
+    /// Average ring stops between a core and a memory controller: a bidirectional ring of `cores`
+    /// stops has mean distance `cores / 4` (assumption: controllers spread evenly, at least 1 stop).
+    pub fn ring_hops(&self) -> u32 {
+        (self.cores / 4).max(1)
+    }
+    /// Latency of an access that misses the L2 and goes over the ring to DRAM, cycles.
+    pub fn dram_miss_cycles(&self) -> u64 {
+        self.l2_latency as u64
+            + self.ring_hops() as u64 * self.ring_hop_latency as u64
+            + (self.line_bytes as u64).div_ceil(self.ring_bytes_per_clock as u64)
+            + (self.dram_latency_ns * self.clock_ghz).round() as u64
+    }
+    /// DRAM bytes per core cycle.
+    pub fn dram_bytes_per_cycle(&self) -> f64 {
+        self.dram_bandwidth_gbs / self.clock_ghz
+    }
+}
+
+impl Default for MachineConfig {
+    fn default() -> Self {
+        MachineConfig::larrabee_24()
+    }
+}

@@ -1,0 +1,269 @@
+//! The many-core machine model: replays the counting context's per-task records
+//! ([`crate::sism::PhaseRecords`]) on a configurable Larrabee-style chip ([`MachineConfig`]) and
+//! reports simulated cycles, milliseconds, cycle stacks, lane utilisation and cache behaviour per
+//! phase and per frame. See [`timing`] for the model's rules and [`cache`] for the caches.
+//!
+//! Records can be saved to a file ([`save_records`]) and re-timed under another configuration
+//! without re-running kernels ([`load_records`], `sism replay`).
+
+pub mod cache;
+pub mod config;
+pub mod timing;
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+pub use config::MachineConfig;
+pub use timing::{CycleStack, MemoryCounts, PhaseReport};
+
+use crate::output::stats::StatsReport;
+use crate::sism::PhaseRecords;
+
+/// A frame timed on a machine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MachineReport {
+    /// The configuration used.
+    pub config: MachineConfig,
+    /// One report per phase, in frame order.
+    pub phases: Vec<PhaseReport>,
+    /// The frame's totals (sum of the phases).
+    pub frame: PhaseReport,
+}
+
+/// Times the frame whose records are `records` on `config`. Deterministic: a function of the records
+/// (line addresses enter only through their first-touch order) and the configuration.
+pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineReport {
+    let mut machine = timing::Machine::new(config);
+    let phases: Vec<PhaseReport> = records
+        .iter()
+        .map(|p| machine.run_phase(&p.phase, &p.tasks))
+        .collect();
+    let frame = timing::frame_total(&phases, config);
+    MachineReport {
+        config: config.clone(),
+        phases,
+        frame,
+    }
+}
+
+impl MachineReport {
+    /// The phase named `name`.
+    pub fn phase(&self, name: &str) -> Option<&PhaseReport> {
+        self.phases.iter().find(|p| p.phase == name)
+    }
+
+    /// Adds `machine.<phase>.*` and `machine.frame.*` counters (cycles, ms, the cycle stack, lane
+    /// utilisation, miss rates, bytes moved) and the machine's facts.
+    pub fn add_to(&self, stats: &mut StatsReport) {
+        let c = &self.config;
+        stats
+            .fact("machine", &c.name)
+            .fact("machine.cores", c.cores)
+            .fact("machine.clock_ghz", c.clock_ghz);
+        for p in self.phases.iter().chain(std::iter::once(&self.frame)) {
+            let name = &p.phase;
+            let key = |k: &str| format!("machine.{name}.{k}");
+            let what = if name == "frame" {
+                "whole frame".to_string()
+            } else {
+                format!("phase {name}")
+            };
+            stats
+                .stat(
+                    &key("cycles"),
+                    p.cycles as f64,
+                    "cycles",
+                    &format!("{what}: simulated core cycles, including the barrier"),
+                )
+                .stat(
+                    &key("ms"),
+                    p.ms,
+                    "ms",
+                    &format!("{what}: simulated time at {} GHz on {}", c.clock_ghz, c.name),
+                );
+            for (part, v) in p.stack.parts() {
+                let desc = match part {
+                    "issue" => "issuing instructions (average core)",
+                    "memory" => "memory stalls not hidden by other threads, DRAM bandwidth",
+                    "atomics_sync" => "vector atomics, conflicts and the barrier",
+                    _ => "idle: waiting for the busiest core (load imbalance) or no task",
+                };
+                stats.stat(
+                    &key(&format!("stack.{part}")),
+                    v as f64,
+                    "cycles",
+                    &format!("{what}: cycle stack, {desc}"),
+                );
+            }
+            let line = c.line_bytes;
+            stats
+                .stat(
+                    &key("tasks"),
+                    p.tasks as f64,
+                    "tasks",
+                    &format!("{what}: tasks replayed"),
+                )
+                .stat(
+                    &key("instructions"),
+                    p.counters.instructions() as f64,
+                    "instructions",
+                    &format!("{what}: instructions of every class"),
+                )
+                .stat(
+                    &key("lane_utilisation"),
+                    p.lane_utilisation(),
+                    "fraction",
+                    &format!("{what}: active lanes per vector instruction / 16"),
+                )
+                .stat(
+                    &key("l1_miss_rate"),
+                    p.memory.l1_miss_rate(),
+                    "fraction",
+                    &format!("{what}: L1 misses per line access"),
+                )
+                .stat(
+                    &key("l2_miss_rate"),
+                    p.memory.l2_miss_rate(),
+                    "fraction",
+                    &format!("{what}: L2 misses per L2 lookup"),
+                )
+                .stat(
+                    &key("bytes_l2_to_l1"),
+                    p.memory.l2_to_l1_bytes(line) as f64,
+                    "bytes",
+                    &format!("{what}: bytes filled into L1 from L2"),
+                )
+                .stat(
+                    &key("bytes_dram"),
+                    p.memory.dram_bytes(line) as f64,
+                    "bytes",
+                    &format!("{what}: bytes between DRAM and L2 (fills and write-backs)"),
+                );
+        }
+    }
+
+    /// A short human-readable table: per phase ms, share and stack.
+    pub fn to_table(&self) -> String {
+        let mut s = format!(
+            "{} ({} cores, {} threads/core, {} GHz)\n{:<12} {:>10} {:>7} {:>12} {:>12} {:>12} {:>12} {:>6}\n",
+            self.config.name,
+            self.config.cores,
+            self.config.threads_per_core,
+            self.config.clock_ghz,
+            "phase",
+            "ms",
+            "share",
+            "issue",
+            "memory",
+            "atom+sync",
+            "imbal+idle",
+            "lanes"
+        );
+        for p in self.phases.iter().chain(std::iter::once(&self.frame)) {
+            s += &format!(
+                "{:<12} {:>10.3} {:>6.1}% {:>12} {:>12} {:>12} {:>12} {:>5.0}%\n",
+                p.phase,
+                p.ms,
+                100.0 * p.cycles as f64 / self.frame.cycles.max(1) as f64,
+                p.stack.issue,
+                p.stack.memory,
+                p.stack.atomics_sync,
+                p.stack.imbalance_idle,
+                100.0 * p.lane_utilisation()
+            );
+        }
+        s
+    }
+}
+
+/// Writes the resolved configuration as `machine.toml` into `dir`.
+pub fn write_config(dir: &Path, config: &MachineConfig) -> anyhow::Result<()> {
+    let path = dir.join("machine.toml");
+    std::fs::write(&path, config.to_toml())
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+}
+
+const RECORDS_MAGIC: &[u8; 8] = b"SISMREC\0";
+const RECORDS_VERSION: u32 = 1;
+
+/// Writes `records` to `path`: the magic `SISMREC\0`, a little-endian u32 version (1) and phase
+/// count, then per phase its name (u32 length + UTF-8), task count (u64) and each task's
+/// [`sism_simd::TaskRecord::to_bytes`] prefixed by its length (u64).
+pub fn save_records(path: &Path, records: &[PhaseRecords]) -> anyhow::Result<()> {
+    let file =
+        std::fs::File::create(path).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    let put = |w: &mut std::io::BufWriter<std::fs::File>, b: &[u8]| {
+        w.write_all(b)
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    };
+    put(&mut w, RECORDS_MAGIC)?;
+    put(&mut w, &RECORDS_VERSION.to_le_bytes())?;
+    put(&mut w, &(records.len() as u32).to_le_bytes())?;
+    for p in records {
+        put(&mut w, &(p.phase.len() as u32).to_le_bytes())?;
+        put(&mut w, p.phase.as_bytes())?;
+        put(&mut w, &(p.tasks.len() as u64).to_le_bytes())?;
+        for t in &p.tasks {
+            let b = t.to_bytes();
+            put(&mut w, &(b.len() as u64).to_le_bytes())?;
+            put(&mut w, &b)?;
+        }
+    }
+    w.flush()
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+}
+
+/// Reads a file written by [`save_records`].
+pub fn load_records(path: &Path) -> anyhow::Result<Vec<PhaseRecords>> {
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    parse_records(&bytes).map_err(|e| anyhow::anyhow!("records file {}: {e}", path.display()))
+}
+
+/// Parses the bytes of a records file (see [`save_records`]).
+pub fn parse_records(b: &[u8]) -> Result<Vec<PhaseRecords>, String> {
+    let mut pos = 0usize;
+    let mut take = |n: usize| -> Result<&[u8], String> {
+        if b.len() - pos < n {
+            return Err(format!("truncated at byte {pos}"));
+        }
+        pos += n;
+        Ok(&b[pos - n..pos])
+    };
+    if take(8)? != RECORDS_MAGIC {
+        return Err("not a sism records file (bad magic)".into());
+    }
+    let u32_at = |s: &[u8]| u32::from_le_bytes(s.try_into().expect("4 bytes"));
+    let u64_at = |s: &[u8]| u64::from_le_bytes(s.try_into().expect("8 bytes"));
+    let version = u32_at(take(4)?);
+    if version != RECORDS_VERSION {
+        return Err(format!(
+            "unsupported version {version} (expected {RECORDS_VERSION})"
+        ));
+    }
+    let phases = u32_at(take(4)?);
+    let mut out = Vec::with_capacity(phases as usize);
+    for _ in 0..phases {
+        let len = u32_at(take(4)?) as usize;
+        let phase = String::from_utf8(take(len)?.to_vec()).map_err(|_| "phase name is not UTF-8")?;
+        let n = u64_at(take(8)?);
+        let mut tasks = Vec::with_capacity(n.min(1 << 20) as usize);
+        for i in 0..n {
+            let len = u64_at(take(8)?) as usize;
+            let (t, used) = sism_simd::TaskRecord::from_bytes(take(len)?)
+                .map_err(|e| format!("phase {phase}, task {i}: {e}"))?;
+            if used != len {
+                return Err(format!("phase {phase}, task {i}: length mismatch"));
+            }
+            tasks.push(t);
+        }
+        out.push(PhaseRecords { phase, tasks });
+    }
+    if pos != b.len() {
+        return Err(format!("{} trailing bytes", b.len() - pos));
+    }
+    Ok(out)
+}
