@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 
+use sism::machine::MachineConfig;
 use sism::metrics;
 use sism::output::{pfm, pictures};
 use sism::reference::ReferenceOptions;
@@ -41,6 +42,59 @@ enum Command {
         /// Seed of the reference's sample jitter.
         #[arg(long, default_value_t = 0)]
         seed: u64,
+        /// Override the scene's image width, pixels.
+        #[arg(long)]
+        width: Option<u32>,
+        /// Override the scene's image height, pixels.
+        #[arg(long)]
+        height: Option<u32>,
+        /// Time the SISM frame on a modelled many-core chip: a preset (larrabee-8/16/24/32/48/64) or a
+        /// machine TOML file. Runs the kernels under the counting context and also writes machine.toml
+        /// and records.bin (for `sism replay`); needs --algo sism or sism-independent.
+        #[arg(long)]
+        machine: Option<String>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Re-time saved task records (records.bin from `render --machine` or `study`) on another machine
+    /// without re-running kernels; writes stats.txt, stats.json and machine.toml.
+    Replay {
+        /// Records file.
+        records: PathBuf,
+        /// A preset (larrabee-8/16/24/32/48/64) or a machine TOML file.
+        #[arg(long, default_value = "larrabee-24")]
+        machine: String,
+        /// Output folder (created if missing).
+        #[arg(long, default_value = "out/replay")]
+        out: PathBuf,
+        /// Print nothing.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Simulate one SISM frame on many machines: cores (and optionally threads per core and L2 sizes)
+    /// vary around a base machine; writes study.csv, speedup.png, phases.png, records.bin, machine.toml.
+    Study {
+        /// Scene file (TOML, see CONTRACTS.md and README).
+        scene: PathBuf,
+        /// Core counts, comma-separated.
+        #[arg(long, default_value = "1,2,4,8,16,24,32,48,64")]
+        cores: String,
+        /// Hardware threads per core, comma-separated (default: the base machine's).
+        #[arg(long)]
+        threads: Option<String>,
+        /// L2 subset sizes per core in KB, comma-separated (default: the base machine's).
+        #[arg(long)]
+        l2_kb: Option<String>,
+        /// The base machine: a preset or a machine TOML file.
+        #[arg(long, default_value = "larrabee-24")]
+        machine: String,
+        /// Algorithm (sism or sism-independent).
+        #[arg(long, value_enum, default_value = "sism")]
+        algo: Algorithm,
+        /// Output folder (created if missing).
+        #[arg(long, default_value = "out/study")]
+        out: PathBuf,
         /// Override the scene's image width, pixels.
         #[arg(long)]
         width: Option<u32>,
@@ -124,6 +178,33 @@ fn print_stdout(text: &str) -> anyhow::Result<()> {
     }
 }
 
+/// Loads a scene and applies --width/--height.
+fn load_scene(path: &std::path::Path, width: Option<u32>, height: Option<u32>) -> anyhow::Result<Scene> {
+    let mut scene = Scene::load(path)?;
+    if let Some(w) = width {
+        scene.camera.width = w;
+    }
+    if let Some(h) = height {
+        scene.camera.height = h;
+    }
+    if let Err((key, msg)) = scene.camera.validate() {
+        anyhow::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
+    }
+    Ok(scene)
+}
+
+/// The SISM composition of `algo`; the machine model times SISM only.
+fn composition_of(algo: Algorithm) -> anyhow::Result<sism::sism::Composition> {
+    match algo {
+        Algorithm::Sism => Ok(sism::sism::Composition::Additive),
+        Algorithm::SismIndependent => Ok(sism::sism::Composition::Independent),
+        other => anyhow::bail!(
+            "--machine times SISM's kernels: use --algo sism or sism-independent, not {}",
+            other.name()
+        ),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render {
@@ -134,17 +215,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             width,
             height,
+            machine,
             quiet,
         } => {
-            let mut scene = Scene::load(&scene)?;
-            if let Some(w) = width {
-                scene.camera.width = w;
-            }
-            if let Some(h) = height {
-                scene.camera.height = h;
-            }
-            if let Err((key, msg)) = scene.camera.validate() {
-                anyhow::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
+            let scene = load_scene(&scene, width, height)?;
+            if let Some(machine) = machine {
+                let config = MachineConfig::resolve(&machine).context("--machine")?;
+                let composition = composition_of(algo)?;
+                let r = sism::machine::run::render_on_machine(&scene, composition, &config);
+                render::write_outputs(&out, &scene, &r.result)?;
+                sism::machine::write_config(&out, &config)?;
+                sism::machine::save_records(&out.join("records.bin"), &r.records)?;
+                if !quiet {
+                    eprint!("{}", r.result.stats.to_text());
+                    eprint!("{}", r.report.to_table());
+                    eprintln!("wrote {}", out.display());
+                }
+                return Ok(());
             }
             let options = ReferenceOptions {
                 spp,
@@ -157,6 +244,67 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if !quiet {
                 eprint!("{}", result.stats.to_text());
                 eprintln!("wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Command::Replay {
+            records,
+            machine,
+            out,
+            quiet,
+        } => {
+            let config = MachineConfig::resolve(&machine).context("--machine")?;
+            let report = sism::machine::run::replay(&records, &config, &out)?;
+            if !quiet {
+                print_stdout(report.to_table().trim_end())?;
+                eprintln!("wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Command::Study {
+            scene,
+            cores,
+            threads,
+            l2_kb,
+            machine,
+            algo,
+            out,
+            width,
+            height,
+            quiet,
+        } => {
+            use sism::machine::run::{parse_list, study, StudyOptions};
+            let scene = load_scene(&scene, width, height)?;
+            let options = StudyOptions {
+                out,
+                base: MachineConfig::resolve(&machine).context("--machine")?,
+                cores: parse_list("--cores", &cores)?,
+                threads: threads
+                    .map(|s| parse_list("--threads", &s))
+                    .transpose()?
+                    .unwrap_or_default(),
+                l2_kb: l2_kb
+                    .map(|s| parse_list("--l2-kb", &s))
+                    .transpose()?
+                    .unwrap_or_default(),
+                composition: composition_of(algo)?,
+                progress: !quiet,
+            };
+            let points = study(&scene, &options)?;
+            if !quiet {
+                let mut s = String::from("cores threads l2_kb   frame_ms  speedup\n");
+                for p in &points {
+                    s += &format!(
+                        "{:>5} {:>7} {:>5} {:>10.3} {:>8.2}\n",
+                        p.cores,
+                        p.threads,
+                        p.l2_kb,
+                        p.report.frame.ms,
+                        sism::machine::run::speedup(&points, p)
+                    );
+                }
+                print_stdout(s.trim_end())?;
+                eprintln!("wrote {}", options.out.display());
             }
             Ok(())
         }

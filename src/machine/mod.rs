@@ -8,6 +8,7 @@
 
 pub mod cache;
 pub mod config;
+pub mod run;
 pub mod timing;
 
 use std::io::{Read, Write};
