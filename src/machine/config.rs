@@ -265,7 +265,7 @@ impl MachineConfig {
         }
         for (key, kb, ways) in [("l1", self.l1_kb, self.l1_ways), ("l2", self.l2_kb, self.l2_ways)] {
             let lines = kb as u64 * 1024 / self.line_bytes as u64;
-            if lines % ways as u64 != 0 || !(lines / ways as u64).is_power_of_two() {
+            if !lines.is_multiple_of(ways as u64) || !(lines / ways as u64).is_power_of_two() {
                 return Err((
                     if key == "l1" { "l1_kb" } else { "l2_kb" },
                     format!(

@@ -117,6 +117,12 @@ impl MachineReport {
                     &format!("{what}: active lanes per vector instruction / 16"),
                 )
                 .stat(
+                    &key("line_accesses"),
+                    p.memory.accesses as f64,
+                    "accesses",
+                    &format!("{what}: cache-line accesses replayed through L1"),
+                )
+                .stat(
                     &key("l1_miss_rate"),
                     p.memory.l1_miss_rate(),
                     "fraction",

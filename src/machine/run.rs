@@ -316,7 +316,8 @@ mod plots {
             .map(|p| super::speedup(points, p))
             .fold(c1 / c0, f64::max)
             * 1.05;
-        let mut series: Vec<((u32, u32), Vec<(f64, f64)>)> = Vec::new();
+        type Series = ((u32, u32), Vec<(f64, f64)>);
+        let mut series: Vec<Series> = Vec::new();
         for p in points {
             let key = (p.threads, p.l2_kb);
             let pt = (p.cores as f64, super::speedup(points, p));
