@@ -206,7 +206,12 @@ pub fn study(scene: &Scene, options: &StudyOptions) -> anyhow::Result<Vec<StudyP
     plots::speedup(&options.out.join("speedup.png"), scene, &points)?;
     let table_point = points
         .iter()
-        .find(|p| p.cores == options.base.cores)
+        .find(|p| {
+            p.cores == options.base.cores
+                && p.threads == options.base.threads_per_core
+                && p.l2_kb == options.base.l2_kb
+        })
+        .or_else(|| points.iter().find(|p| p.cores == options.base.cores))
         .unwrap_or_else(|| points.last().expect("at least one point"));
     plots::phases(&options.out.join("phases.png"), scene, table_point)?;
     Ok(points)
