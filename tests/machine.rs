@@ -33,8 +33,8 @@ fn encode_lines(lines: &[(u64, bool)]) -> Vec<u8> {
     for &(line, write) in lines {
         let delta = line.wrapping_sub(heads[0]) as i64;
         let zz = ((delta << 1) ^ (delta >> 63)) as u64;
-        // Slot 0, no run: ((zz << 2 | slot) << 1 | write) << 1 | run.
-        let tok = (zz << 3) | ((write as u64) << 1);
+        // Slot 0, no run: stored = ((zz << 3 | slot << 1 | write) << 1) | run.
+        let tok = ((zz << 3) | write as u64) << 1;
         varint(&mut out, tok);
         let s = if delta.unsigned_abs() <= 1024 {
             0
