@@ -255,15 +255,7 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     };
 
     let t = Instant::now();
-    let ((), resolve_records) = run_task(
-        exec,
-        resolve::Resolve {
-            grid: &grid,
-            occlusion,
-            light_radius: light.radius,
-            image: &mut visibility,
-        },
-    );
+    let resolve_records = resolve::resolve(&grid, occlusion, light.radius, &mut visibility, exec);
     stats.times.resolve = t.elapsed();
     phase("resolve", resolve_records);
     SismFrame {

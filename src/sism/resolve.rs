@@ -11,6 +11,10 @@ use sism_simd::{Kernel, Simd};
 
 use super::grid::Grid;
 use crate::frame::VisibilityImage;
+use rayon::prelude::*;
+use sism_simd::TaskRecord;
+
+use super::{run_task, Exec};
 
 /// Task kind of the resolve pass in counting records.
 pub const TASK_RESOLVE: u32 = 4;
@@ -35,7 +39,43 @@ pub struct Resolve<'a> {
     pub occlusion: Occlusion<'a>,
     /// Light radius, world units (0: no horizon term).
     pub light_radius: f32,
-    pub image: &'a mut VisibilityImage,
+    /// First sorted sample of this task; `out` holds the visibility of `out.len()` samples from it.
+    pub first: usize,
+    pub out: &'a mut [f32],
+}
+
+/// Samples per resolve task: enough work per task, and tasks for every core of the modelled chip.
+pub const RESOLVE_CHUNK: usize = 16_384;
+
+/// Eq. 4 for every sample, as tasks of [`RESOLVE_CHUNK`] samples, then the values written to their
+/// pixels. Returns the task records (none natively).
+pub fn resolve(
+    grid: &Grid,
+    occlusion: Occlusion<'_>,
+    light_radius: f32,
+    image: &mut VisibilityImage,
+    exec: Exec,
+) -> Vec<TaskRecord> {
+    let mut values = vec![0f32; grid.samples.pixel.len()];
+    let records: Vec<Vec<TaskRecord>> = values
+        .par_chunks_mut(RESOLVE_CHUNK)
+        .enumerate()
+        .map(|(k, out)| {
+            let task = Resolve {
+                grid,
+                occlusion,
+                light_radius,
+                first: k * RESOLVE_CHUNK,
+                out,
+            };
+            run_task(exec, task).1
+        })
+        .collect();
+    // Scattering into the frame is a plain store per sample (the chip's tasks would scatter in place).
+    for (&pixel, &v) in grid.samples.pixel.iter().zip(&values) {
+        image.values[pixel as usize] = v;
+    }
+    records.into_iter().flatten().collect()
 }
 
 impl Kernel for Resolve<'_> {
@@ -43,13 +83,12 @@ impl Kernel for Resolve<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
         s.begin_task(TASK_RESOLVE);
-        let n = self.grid.samples.pixel.len();
+        let end = self.first + self.out.len();
         let zero = s.splat_f(0.0);
         let one = s.splat_f(1.0);
-        let pixels = sism_simd::as_i32(&self.grid.samples.pixel);
-        let mut i = 0;
-        while i < n {
-            let m = s.mask_first_n(n - i);
+        let mut i = self.first;
+        while i < end {
+            let m = s.mask_first_n(end - i);
             let mut occlusion = zero;
             if let Occlusion::Additive { umbra, penumbra } = self.occlusion {
                 occlusion = s.cvt_i_f(s.mask_load_i(s.splat_i(0), m, &umbra[i..]));
@@ -84,8 +123,7 @@ impl Kernel for Resolve<'_> {
                 // Here `occlusion` holds the horizon alone: one more independent occluder.
                 v = s.mul_f(v, s.mask_load_f(one, m, &visible[i..]));
             }
-            let px = s.mask_load_i(s.splat_i(0), m, &pixels[i..]);
-            s.mask_scatter_f(&mut self.image.values, m, px, v);
+            s.mask_store_f(&mut self.out[i - self.first..], m, v);
             i += 16;
         }
         s.end_task();
