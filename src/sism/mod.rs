@@ -126,6 +126,12 @@ pub struct SismStats {
     pub occupied_cells: u64,
     pub bins: u64,
     pub occupied_bins: u64,
+    /// Samples per occupied cell: `[p50, p90, p99, max]`.
+    pub samples_per_cell: [u64; 4],
+    /// Depth complexity (umbra crossings) per sample, additive composition only: `[p50, p90, p99,
+    /// max]`, plus the mean in [`SismStats::depth_complexity_mean`].
+    pub depth_complexity: [u64; 4],
+    pub depth_complexity_mean: f64,
     pub umbra: UmbraStats,
     pub penumbra: PenumbraStats,
 }
@@ -178,6 +184,12 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     stats.occupied_cells = grid.occupied_cells() as u64;
     stats.bins = grid.bins.len() as u64;
     stats.occupied_bins = grid.occupied_bins() as u64;
+    stats.samples_per_cell = percentiles(
+        grid.cell_start
+            .windows(2)
+            .map(|w| (w[1] - w[0]) as u64)
+            .filter(|&n| n > 0),
+    );
     stats.times.grid = t.elapsed();
 
     let t = Instant::now();
@@ -204,6 +216,9 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
             let (counts, umbra_records) =
                 umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra, exec);
             depth = counts;
+            stats.depth_complexity = percentiles(depth.iter().map(|&d| d as u64));
+            stats.depth_complexity_mean =
+                depth.iter().map(|&d| d as f64).sum::<f64>() / depth.len().max(1) as f64;
             stats.times.umbra += t.elapsed();
             phase("umbra", umbra_records);
             let pen = (light.radius > 0.0).then(|| {
@@ -374,6 +389,17 @@ fn light_samples(
         .collect();
     stats.samples = samples.len() as u64;
     (image, samples, widen, view)
+}
+
+/// `[p50, p90, p99, max]` of `values` (nearest rank; zeros when empty).
+fn percentiles(values: impl Iterator<Item = u64>) -> [u64; 4] {
+    let mut v: Vec<u64> = values.collect();
+    if v.is_empty() {
+        return [0; 4];
+    }
+    v.sort_unstable();
+    let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+    [at(0.5), at(0.9), at(0.99), v[v.len() - 1]]
 }
 
 /// Adds the frame's counters and phase times to a statistics report.
@@ -617,4 +643,27 @@ pub fn report(stats: &SismStats, out: &mut StatsReport) {
     for (name, value, unit, desc) in rows {
         out.stat(name, value as f64, unit, desc);
     }
+    let quantiles = ["p50", "p90", "p99", "max"];
+    for (q, v) in quantiles.iter().zip(stats.samples_per_cell) {
+        out.stat(
+            &format!("dist.samples_per_cell.{q}"),
+            v as f64,
+            "samples",
+            "samples per occupied grid cell (distribution)",
+        );
+    }
+    for (q, v) in quantiles.iter().zip(stats.depth_complexity) {
+        out.stat(
+            &format!("dist.depth_complexity.{q}"),
+            v as f64,
+            "crossings",
+            "umbra depth complexity per sample (distribution; additive composition)",
+        );
+    }
+    out.stat(
+        "dist.depth_complexity.mean",
+        stats.depth_complexity_mean,
+        "crossings",
+        "mean umbra depth complexity per sample (additive composition)",
+    );
 }

@@ -91,6 +91,20 @@ fn facing_away_receivers_and_empty_bins_cost_nothing() {
     assert!(s.umbra.triangles_back_facing > 0);
     let facing_away = frame.visibility.values.iter().filter(|&&v| v == -1.0).count() as u64;
     assert_eq!(facing_away, s.receivers_facing_away);
+    // Distributions: ordered quantiles; every occupied cell holds a sample; shadows cross occluders.
+    let [p50, p90, p99, max] = s.samples_per_cell;
+    assert!(
+        1 <= p50 && p50 <= p90 && p90 <= p99 && p99 <= max,
+        "{:?}",
+        s.samples_per_cell
+    );
+    let [d50, d90, d99, dmax] = s.depth_complexity;
+    assert!(
+        d50 <= d90 && d90 <= d99 && d99 <= dmax && dmax >= 1,
+        "{:?}",
+        s.depth_complexity
+    );
+    assert!(s.depth_complexity_mean > 0.0 && s.depth_complexity_mean <= dmax as f64);
 }
 
 #[test]
