@@ -13,7 +13,6 @@
 //! Adding an algorithm to the comparison is one entry in [`candidates`].
 
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 use std::time::Instant;
 
 use anyhow::{bail, ensure, Context};
@@ -21,6 +20,7 @@ use serde::Serialize;
 
 use crate::frame::VisibilityImage;
 use crate::metrics::{self, ErrorReport};
+use crate::output::plot;
 use crate::output::{pfm, pictures};
 use crate::reference::ReferenceOptions;
 use crate::render::{self, Algorithm, RenderResult};
@@ -404,41 +404,14 @@ pub fn to_table(report: &BenchReport) -> String {
     s
 }
 
-/// Registers the embedded DejaVu Sans as plotters' "sans-serif" (the ab_glyph backend has no system
-/// fonts).
-fn register_fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        use plotters::style::{register_font, FontStyle};
-        for style in [FontStyle::Normal, FontStyle::Bold] {
-            let bytes = match style {
-                FontStyle::Bold => dejavu::sans::bold(),
-                _ => dejavu::sans::regular(),
-            };
-            // DejaVu is a valid font: registration cannot fail.
-            let _ = register_font("sans-serif", style, bytes);
-        }
-    });
-}
-
 /// Size of `bench.png`, pixels.
-pub const PLOT_SIZE: (u32, u32) = (1000, 700);
-
-/// Series colours, in candidate order.
-const PALETTE: [(u8, u8, u8); 6] = [
-    (31, 119, 180),
-    (214, 39, 40),
-    (44, 160, 44),
-    (255, 127, 14),
-    (148, 103, 189),
-    (140, 86, 75),
-];
+pub use crate::output::plot::PLOT_SIZE;
 
 /// `bench.png`: median time (ms, log) on x against MAE (log) on y; one series per algorithm, points
 /// joined by a line when a series sweeps a setting, each point labelled with its setting.
 pub fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    register_fonts();
+    plot::register_fonts();
     let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("cannot draw {}: {e}", path.display());
 
     // Series in first-appearance order of the algorithm name.
@@ -476,7 +449,7 @@ pub fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
     let (y0, y1) = span(&maes, (1e-6, 1.0));
     let at = |r: &BenchRow| (r.median_ms.max(x0), r.error.mae.max(y0));
 
-    let mut rgb = vec![0u8; PLOT_SIZE.0 as usize * PLOT_SIZE.1 as usize * 3];
+    let mut rgb = plot::canvas();
     {
         let root = BitMapBackend::with_buffer(&mut rgb, PLOT_SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -515,7 +488,7 @@ pub fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
             .map_err(|e| err(&e))?;
 
         for (i, (name, rows)) in series.iter().enumerate() {
-            let (r, g, b) = PALETTE[i % PALETTE.len()];
+            let (r, g, b) = plot::PALETTE[i % plot::PALETTE.len()];
             let colour = RGBColor(r, g, b);
             let points: Vec<(f64, f64)> = rows.iter().map(|r| at(r)).collect();
             if points.len() > 1 {
@@ -554,10 +527,7 @@ pub fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
-    image::RgbImage::from_raw(PLOT_SIZE.0, PLOT_SIZE.1, rgb)
-        .expect("buffer sized width*height*3")
-        .save(path)
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    plot::save(path, rgb)
 }
 
 /// A log axis over `lo..hi` with labelled grid lines at 1, 2 and 5 times powers of ten (every

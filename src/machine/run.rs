@@ -262,37 +262,13 @@ pub fn write_csv(path: &Path, points: &[StudyPoint]) -> anyhow::Result<()> {
 
 mod plots {
     use std::path::Path;
-    use std::sync::Once;
 
     use plotters::prelude::*;
 
     use super::StudyPoint;
     use crate::scene::Scene;
 
-    const SIZE: (u32, u32) = (1000, 700);
-    const PALETTE: [(u8, u8, u8); 6] = [
-        (31, 119, 180),
-        (214, 39, 40),
-        (44, 160, 44),
-        (255, 127, 14),
-        (148, 103, 189),
-        (140, 86, 75),
-    ];
-
-    fn register_fonts() {
-        static ONCE: Once = Once::new();
-        ONCE.call_once(|| {
-            use plotters::style::{register_font, FontStyle};
-            for style in [FontStyle::Normal, FontStyle::Bold] {
-                let bytes = match style {
-                    FontStyle::Bold => dejavu::sans::bold(),
-                    _ => dejavu::sans::regular(),
-                };
-                // DejaVu is a valid font: registration cannot fail.
-                let _ = register_font("sans-serif", style, bytes);
-            }
-        });
-    }
+    use crate::output::plot::{canvas, register_fonts, save, PALETTE, PLOT_SIZE as SIZE};
 
     fn scene_name(scene: &Scene) -> String {
         scene
@@ -300,13 +276,6 @@ mod plots {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default()
-    }
-
-    fn save(path: &Path, rgb: Vec<u8>) -> anyhow::Result<()> {
-        image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb)
-            .expect("buffer sized width*height*3")
-            .save(path)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
     }
 
     /// `speedup.png`: frame speedup against cores (over the smallest core count), one series per
@@ -331,7 +300,7 @@ mod plots {
                 None => series.push((key, vec![pt])),
             }
         }
-        let mut rgb = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
+        let mut rgb = canvas();
         {
             let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
             root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -403,7 +372,7 @@ mod plots {
         let r = &point.report;
         let n = r.phases.len().max(1);
         let ymax = r.phases.iter().map(|p| p.ms).fold(0.0, f64::max).max(1e-6) * 1.2;
-        let mut rgb = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
+        let mut rgb = canvas();
         {
             let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
             root.fill(&WHITE).map_err(|e| err(&e))?;

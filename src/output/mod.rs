@@ -2,4 +2,5 @@
 
 pub mod pfm;
 pub mod pictures;
+pub mod plot;
 pub mod stats;

@@ -1,0 +1,48 @@
+//! What every PNG plot of sism shares: the embedded font, the canvas size, the series colours, and
+//! writing the drawn buffer.
+
+use std::path::Path;
+use std::sync::Once;
+
+/// Size of a plot, pixels.
+pub const PLOT_SIZE: (u32, u32) = (1000, 700);
+
+/// Series colours, in series order.
+pub const PALETTE: [(u8, u8, u8); 6] = [
+    (31, 119, 180),
+    (214, 39, 40),
+    (44, 160, 44),
+    (255, 127, 14),
+    (148, 103, 189),
+    (140, 86, 75),
+];
+
+/// Registers the embedded DejaVu Sans as plotters' "sans-serif" (the ab_glyph backend has no system
+/// fonts). Call before drawing text; later calls do nothing.
+pub fn register_fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        use plotters::style::{register_font, FontStyle};
+        for style in [FontStyle::Normal, FontStyle::Bold] {
+            let bytes = match style {
+                FontStyle::Bold => dejavu::sans::bold(),
+                _ => dejavu::sans::regular(),
+            };
+            // DejaVu is a valid font: registration cannot fail.
+            let _ = register_font("sans-serif", style, bytes);
+        }
+    });
+}
+
+/// A zeroed RGB buffer of [`PLOT_SIZE`], for plotters' `BitMapBackend::with_buffer`.
+pub fn canvas() -> Vec<u8> {
+    vec![0u8; PLOT_SIZE.0 as usize * PLOT_SIZE.1 as usize * 3]
+}
+
+/// Writes a drawn [`canvas`] to `path` as PNG.
+pub fn save(path: &Path, rgb: Vec<u8>) -> anyhow::Result<()> {
+    image::RgbImage::from_raw(PLOT_SIZE.0, PLOT_SIZE.1, rgb)
+        .expect("canvas sized by PLOT_SIZE")
+        .save(path)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+}
