@@ -21,6 +21,7 @@ fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
         .join(format!("{name}.toml"));
+
     let mut scene = match Scene::load(&path) {
         Ok(s) => s,
         Err(e) => {
@@ -46,6 +47,9 @@ fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
         })
     });
     group.finish();
+    if phases.is_empty() {
+        return; // filtered out on the command line (`cargo bench --bench sism -- Sampled`)
+    }
     let get = |f: fn(&PhaseTimes) -> Duration| median(phases.iter().map(f).collect());
     eprintln!(
         "{name} {composition:?} per-phase medians (ms): eye {:.1} | grid {:.1} | umbra {:.1} | silhouettes {:.1} | penumbra {:.1} | resolve {:.1} | frame {:.1}",
@@ -63,8 +67,10 @@ fn frames(c: &mut Criterion) {
     bench_scene(c, "plate", Composition::Additive);
     bench_scene(c, "palm", Composition::Additive);
     bench_scene(c, "palm", Composition::Independent);
+    bench_scene(c, "palm", Composition::Sampled);
     bench_scene(c, "japanese-maple", Composition::Additive);
     bench_scene(c, "japanese-maple", Composition::Independent);
+    bench_scene(c, "japanese-maple", Composition::Sampled);
 }
 
 /// As the CLI: freed frame buffers stay mapped for the next frame (see src/main.rs).

@@ -105,7 +105,11 @@ pub fn candidates(spp_list: &[u32]) -> Vec<Candidate> {
             }),
         })
         .collect();
-    for algorithm in [Algorithm::Sism, Algorithm::SismIndependent] {
+    for algorithm in [
+        Algorithm::Sism,
+        Algorithm::SismIndependent,
+        Algorithm::SismSampled,
+    ] {
         list.push(Candidate {
             algorithm: algorithm.name().into(),
             setting: "-".into(),
@@ -619,7 +623,8 @@ mod tests {
                 ("reference", "16"),
                 ("reference", "64"),
                 ("sism", "-"),
-                ("sism-independent", "-")
+                ("sism-independent", "-"),
+                ("sism-sampled", "-"),
             ]
         );
     }

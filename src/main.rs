@@ -195,12 +195,11 @@ fn load_scene(path: &std::path::Path, width: Option<u32>, height: Option<u32>) -
 
 /// The SISM composition of `algo`; the machine model times SISM only.
 fn composition_of(algo: Algorithm) -> anyhow::Result<sism::sism::Composition> {
-    match algo {
-        Algorithm::Sism => Ok(sism::sism::Composition::Additive),
-        Algorithm::SismIndependent => Ok(sism::sism::Composition::Independent),
-        other => anyhow::bail!(
-            "--machine times SISM's kernels: use --algo sism or sism-independent, not {}",
-            other.name()
+    match algo.composition() {
+        Some(c) => Ok(c),
+        None => anyhow::bail!(
+            "--machine times SISM's kernels: use --algo sism, sism-independent or sism-sampled, not {}",
+            algo.name()
         ),
     }
 }

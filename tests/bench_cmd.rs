@@ -44,7 +44,7 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     let report = bench_cmd::bench(&plate(), &options).unwrap();
     assert_eq!((report.width, report.height), (64, 48));
 
-    // CSV: the header, the reference's sweep in ascending spp, then the two SISM compositions.
+    // CSV: the header, the reference's sweep in ascending spp, then the three SISM compositions.
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], CSV_HEADER);
@@ -56,7 +56,8 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
             ("reference", "4"),
             ("reference", "16"),
             ("sism", "-"),
-            ("sism-independent", "-")
+            ("sism-independent", "-"),
+            ("sism-sampled", "-"),
         ],
         "{csv}"
     );
@@ -78,13 +79,14 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
         value(3, "mae") < 0.01,
         "sism-independent MAE on the plate:\n{csv}"
     );
+    assert!(value(4, "mae") < 0.01, "sism-sampled MAE on the plate:\n{csv}");
     // The report and the CSV agree.
     assert!((report.rows[2].error.mae - value(2, "mae")).abs() < 1e-6);
 
     // JSON parses and carries the rows and the truth's settings.
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("bench.json")).unwrap()).unwrap();
-    assert_eq!(json["rows"].as_array().unwrap().len(), 4);
+    assert_eq!(json["rows"].as_array().unwrap().len(), 5);
     assert_eq!(json["truth"]["spp"], 256);
     assert_eq!(json["rows"][0]["times_ms"].as_array().unwrap().len(), 1);
 
@@ -104,7 +106,7 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     };
     let again = bench_cmd::bench(&plate(), &options).unwrap();
     assert_eq!(again.truth.spp, None);
-    assert_eq!(again.rows.len(), 3); // one reference setting and the two SISM compositions
+    assert_eq!(again.rows.len(), 4); // one reference setting and the three SISM compositions
     assert_eq!(again.rows[0].error.mae, report.rows[0].error.mae);
 }
 

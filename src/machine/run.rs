@@ -30,6 +30,7 @@ pub fn render_on_machine(scene: &Scene, composition: Composition, config: &Machi
     let algorithm = match composition {
         Composition::Additive => "sism",
         Composition::Independent => "sism-independent",
+        Composition::Sampled => "sism-sampled",
     };
     stats
         .fact("scene", scene.source.display())

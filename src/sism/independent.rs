@@ -22,7 +22,9 @@ use super::{run_task, Exec};
 use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::EdgeRecord;
-use super::penumbra::{add_edge_terms, bin_positions, quad_in_bin, select_in_wedge, PenumbraStats};
+use super::penumbra::{
+    add_edge_terms, bin_positions, count_reached, quad_in_bin, select_in_wedge, PenumbraStats,
+};
 use super::silhouettes::SceneTopology;
 use super::umbra::{covered, row_span, split_by_bins, triangle_in_bin, UmbraStats};
 
@@ -52,20 +54,20 @@ pub fn visible_fraction(
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut visible = vec![1f32; inputs.grid.samples.pixel.len()];
-    let (counters, records): (Vec<[u64; 4]>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut visible, inputs.grid)
-        .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| {
-            !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
-        })
-        .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
-        .unzip();
-    for c in counters {
+    let (counters, records): (Vec<([u64; 4], Vec<u32>)>, Vec<Vec<TaskRecord>>) =
+        split_by_bins(&mut visible, inputs.grid)
+            .into_par_iter()
+            .enumerate()
+            .filter(|(bin, _)| {
+                !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
+            })
+            .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
+            .unzip();
+    for (c, _) in &counters {
         umbra.samples_tested += c[0];
-        penumbra.rows_culled_by_wedge += c[1];
-        penumbra.samples_culled_by_wedge += c[2];
-        penumbra.samples_evaluated += c[3];
+        penumbra.add_bin([c[1], c[2], c[3]]);
     }
+    penumbra.set_quads_per_sample(counters.iter().map(|c| &c.1));
     (visible, records.into_iter().flatten().collect())
 }
 
@@ -78,10 +80,11 @@ pub struct OcclusionBin<'a> {
 }
 
 impl Kernel for OcclusionBin<'_> {
-    /// `[umbra samples tested, rows culled, samples culled, samples evaluated]`.
-    type Output = [u64; 4];
+    /// `[umbra samples tested, rows culled, samples culled, samples evaluated]` and the quads evaluated
+    /// per bin-local sample.
+    type Output = ([u64; 4], Vec<u32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> [u64; 4] {
+    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
         s.begin_task(TASK_OCCLUSION_BIN);
         let inp = self.inputs;
         let grid = inp.grid;
@@ -113,6 +116,7 @@ impl Kernel for OcclusionBin<'_> {
         let mut stamp = vec![u32::MAX; n_samples];
         let mut touched: Vec<i32> = Vec::new();
         let mut selected = vec![0i32; n_samples + 16];
+        let mut reached = vec![0u32; n_samples];
         let mut culled = [0u64; 2];
         let (mut tested, mut evaluated) = (0u64, 0u64);
         let zero = s.splat_f(0.0);
@@ -161,6 +165,7 @@ impl Kernel for OcclusionBin<'_> {
                     };
                     let n = select_in_wedge(s, grid, bin, &q, &mut selected, &mut culled);
                     add_edge_terms(s, &selected, n, positions, edge, inp.light_radius, &mut coverage);
+                    count_reached(&mut reached, &selected[..n]);
                     evaluated += n as u64;
                     n
                 };
@@ -188,6 +193,6 @@ impl Kernel for OcclusionBin<'_> {
             at = end;
         }
         s.end_task();
-        [tested, culled[0], culled[1], evaluated]
+        ([tested, culled[0], culled[1], evaluated], reached)
     }
 }

@@ -13,6 +13,7 @@ pub mod light_view;
 pub mod occlusion;
 pub mod penumbra;
 pub mod resolve;
+pub mod sampled;
 pub mod silhouettes;
 pub mod umbra;
 
@@ -56,6 +57,9 @@ pub enum Composition {
     Additive,
     /// Connected components as independent occluders: `V = prod (1 - coverage_k)` (see `independent`).
     Independent,
+    /// Eq. 3's regions counted at 64 points of each sample's light disk; `V` = share of points no
+    /// occluder covers, so overlaps compose exactly (see `sampled`).
+    Sampled,
 }
 
 /// How kernels execute: natively, or under the counting context (same results bit for bit, plus one
@@ -209,18 +213,23 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
     let quad_lists =
         |stats: &mut SismStats| penumbra::bin_quads(&edges, light.radius, &widen, &grid, &mut stats.penumbra);
 
+    // The umbra's depth complexity at the light centre of every sample (a separate phase except in
+    // the independent composition, which fuses it with the penumbra).
+    let mut umbra_pass = |stats: &mut SismStats| {
+        let t = Instant::now();
+        let (depth, umbra_records) =
+            umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra, exec);
+        stats.depth_complexity = percentiles(depth.iter().map(|&d| d as u64));
+        stats.depth_complexity_mean =
+            depth.iter().map(|&d| d as f64).sum::<f64>() / depth.len().max(1) as f64;
+        stats.times.umbra += t.elapsed();
+        phase("umbra", umbra_records);
+        depth
+    };
     let (depth, sums, visible);
     let occlusion = match options.composition {
         Composition::Additive => {
-            let t = Instant::now();
-            let (counts, umbra_records) =
-                umbra::depth_complexity(topo, c, &grid, &triangle_lists, &mut stats.umbra, exec);
-            depth = counts;
-            stats.depth_complexity = percentiles(depth.iter().map(|&d| d as u64));
-            stats.depth_complexity_mean =
-                depth.iter().map(|&d| d as f64).sum::<f64>() / depth.len().max(1) as f64;
-            stats.times.umbra += t.elapsed();
-            phase("umbra", umbra_records);
+            depth = umbra_pass(&mut stats);
             let pen = (light.radius > 0.0).then(|| {
                 let t = Instant::now();
                 let lists = quad_lists(&mut stats);
@@ -244,6 +253,25 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
                 umbra: &depth,
                 penumbra: sums.as_deref(),
             }
+        }
+        Composition::Sampled => {
+            depth = umbra_pass(&mut stats);
+            let t = Instant::now();
+            let lists = quad_lists(&mut stats);
+            let (fraction, penumbra_records) = sampled::visible_fraction(
+                &edges,
+                light.radius,
+                &widen,
+                &grid,
+                &lists,
+                &depth,
+                &mut stats.penumbra,
+                exec,
+            );
+            visible = fraction;
+            stats.times.penumbra = t.elapsed();
+            phase("penumbra", penumbra_records);
+            resolve::Occlusion::Visible(&visible)
         }
         Composition::Independent => {
             // Umbra and penumbra fuse into one pass per bin; its time is reported as penumbra.
@@ -650,6 +678,20 @@ pub fn report(stats: &SismStats, out: &mut StatsReport) {
             v as f64,
             "samples",
             "samples per occupied grid cell (distribution)",
+        );
+    }
+    out.stat(
+        "penumbra.samples_reached",
+        p.samples_reached as f64,
+        "samples",
+        "samples inside at least one penumbra quad's wedge",
+    );
+    for (q, v) in quantiles.iter().zip(p.quads_per_sample) {
+        out.stat(
+            &format!("dist.quads_per_sample.{q}"),
+            v as f64,
+            "quads",
+            "penumbra quads evaluated per reached sample (distribution)",
         );
     }
     for (q, v) in quantiles.iter().zip(stats.depth_complexity) {

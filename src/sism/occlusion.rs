@@ -181,15 +181,16 @@ impl From<EdgeRecord> for EdgeRecordF64 {
 // Vector kernel
 // ---------------------------------------------------------------------------------------------
 
-type V3<S> = [<S as Simd>::F32; 3];
+/// A 3-vector of 16 lanes.
+pub type V3<S> = [<S as Simd>::F32; 3];
 
 #[inline(always)]
-fn dot3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> S::F32 {
+pub fn dot3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> S::F32 {
     s.fmadd(a[0], b[0], s.fmadd(a[1], b[1], s.mul_f(a[2], b[2])))
 }
 
 #[inline(always)]
-fn cross3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> V3<S> {
+pub fn cross3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> V3<S> {
     [
         s.fmsub(a[1], b[2], s.mul_f(a[2], b[1])),
         s.fmsub(a[2], b[0], s.mul_f(a[0], b[2])),
@@ -238,15 +239,36 @@ fn plane_normal_len2(a: [f32; 3], b: [f32; 3], v3: [f32; 3]) -> f32 {
     n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
 }
 
-/// Signed penumbra term of one edge for 16 samples at once.
-///
-/// `px, py, pz`: sample (receiver) positions relative to the light centre, world units, finite.
-/// `e`: the edge, relative to the light centre. `light_radius`: `r > 0`, world units. Lanes
-/// outside `m` return exactly `+0.0`; active lanes return `Σ_k sign_k · T ∈ [-n_tri/2, n_tri/2]`
-/// (module docs), never NaN or ∞ for finite inputs. Bit-identical on every backend and to
-/// [`edge_term_scalar`].
+/// One edge seen from 16 samples: everything Eq. 3 and the light-point variant
+/// (`sampled`) need, in the unit-disk coordinates of each sample's light footprint.
+#[derive(Clone, Copy)]
+pub struct EdgeFrame<S: Simd> {
+    /// Lanes whose projected, clipped edge reaches into the disk (`d < 1`, `lo < hi`).
+    pub valid: Mask16,
+    /// Distance `d` from the disk centre to the projected edge line, in disk radii, `[0, 1)`.
+    pub dist: S::F32,
+    /// Clipped endpoint positions along the line (from the foot of the perpendicular, in disk radii,
+    /// direction `g`), `-√(1-d²) ≤ lo < hi ≤ √(1-d²)`.
+    pub lo: S::F32,
+    pub hi: S::F32,
+    /// Unit normal of the light disk, from the sample towards the light centre.
+    pub nh: V3<S>,
+    /// The projected line's direction (world axes, unnormalised) and its length `|g|`.
+    pub g: V3<S>,
+    pub gl: S::F32,
+    /// `m·(c - p)`: on which side of the edge's plane the light centre lies (its sign puts the line on
+    /// the `+f` side with `f = -sign(sc) · (g × n̂) / |g|`, `sc = 0` counting as positive).
+    pub sc: S::F32,
+    /// Inputs of the sign rule: the plane normal `m`, `a - p` and the sample position.
+    mv: V3<S>,
+    ea: V3<S>,
+    p: V3<S>,
+}
+
+/// Steps 1–3 of the module docs up to the clipped positions: `None` when no lane of `m` sees the
+/// edge inside its light disk. See [`edge_term`] for the parameters.
 #[inline(always)]
-pub fn edge_term<S: Simd>(
+pub fn edge_frame<S: Simd>(
     s: S,
     m: Mask16,
     px: S::F32,
@@ -254,7 +276,7 @@ pub fn edge_term<S: Simd>(
     pz: S::F32,
     e: &EdgeRecord,
     light_radius: f32,
-) -> S::F32 {
+) -> Option<EdgeFrame<S>> {
     let zero = s.splat_f(0.0);
     let one = s.splat_f(1.0);
     let p = [px, py, pz];
@@ -310,22 +332,37 @@ pub fn edge_term<S: Simd>(
     );
     s.scalar_ops(2);
     if !s.mask_any(valid) || e.n_tri == 0 {
-        return zero;
+        return None;
     }
-    let w = s.sub_f(hi, lo);
-    let dw = s.mul_f(dist, w);
-    let theta = s.atan2_f(dw, s.fmadd(lo, hi, s.mul_f(dist, dist)));
-    let t = s.mul_f(s.sub_f(theta, dw), s.splat_f(INV_2PI));
-    let t = s.clamp_f(t, zero, s.splat_f(0.5));
-    // Signs: subtract where the adjacent triangle's interior faces the light centre.
-    let sc_pos = s.cmp_ge_f(sc, zero);
-    let sc_neg = s.cmp_lt_f(sc, zero);
+    Some(EdgeFrame {
+        valid,
+        dist,
+        lo,
+        hi,
+        nh,
+        g,
+        gl,
+        sc,
+        mv,
+        ea,
+        p,
+    })
+}
+
+/// Step 4 of the module docs: `Σ_k sign_k · t` over the edge's adjacent counted triangles (subtract
+/// where the triangle's interior faces the light centre, 0 where the sample sees it edge-on), for
+/// every lane (callers mask with `f.valid`). With `t = 1` it is the edge's integer weight.
+#[inline(always)]
+pub fn signed_sum<S: Simd>(s: S, f: &EdgeFrame<S>, e: &EdgeRecord, t: S::F32) -> S::F32 {
+    let zero = s.splat_f(0.0);
+    let sc_pos = s.cmp_ge_f(f.sc, zero);
+    let sc_neg = s.cmp_lt_f(f.sc, zero);
     let nt = s.neg_f(t);
     let mut acc = zero;
-    let pa = s.sqrt_f(dot3(s, ea, ea));
+    let pa = s.sqrt_f(dot3(s, f.ea, f.ea));
     for v3 in &e.v3[..if e.n_tri > 1 { 2 } else { 1 }] {
-        let v = rel(s, *v3, p);
-        let s3 = dot3(s, mv, v);
+        let v = rel(s, *v3, f.p);
+        let s3 = dot3(s, f.mv, v);
         let tol = s.splat_f(EDGE_ON_SINE * plane_normal_len2(e.a, e.b, *v3).sqrt());
         let same = s.mask_or(
             s.mask_and(sc_pos, s.cmp_gt_f(s3, zero)),
@@ -337,7 +374,36 @@ pub fn edge_term<S: Simd>(
         let signed = s.select_f(edge_on, zero, signed);
         acc = s.add_f(acc, signed);
     }
-    s.select_f(valid, acc, zero)
+    acc
+}
+
+/// Signed penumbra term of one edge for 16 samples at once.
+///
+/// `px, py, pz`: sample (receiver) positions relative to the light centre, world units, finite.
+/// `e`: the edge, relative to the light centre. `light_radius`: `r > 0`, world units. Lanes
+/// outside `m` return exactly `+0.0`; active lanes return `Σ_k sign_k · T ∈ [-n_tri/2, n_tri/2]`
+/// (module docs), never NaN or ∞ for finite inputs. Bit-identical on every backend and to
+/// [`edge_term_scalar`].
+#[inline(always)]
+pub fn edge_term<S: Simd>(
+    s: S,
+    m: Mask16,
+    px: S::F32,
+    py: S::F32,
+    pz: S::F32,
+    e: &EdgeRecord,
+    light_radius: f32,
+) -> S::F32 {
+    let zero = s.splat_f(0.0);
+    let Some(f) = edge_frame(s, m, px, py, pz, e, light_radius) else {
+        return zero;
+    };
+    let w = s.sub_f(f.hi, f.lo);
+    let dw = s.mul_f(f.dist, w);
+    let theta = s.atan2_f(dw, s.fmadd(f.lo, f.hi, s.mul_f(f.dist, f.dist)));
+    let t = s.mul_f(s.sub_f(theta, dw), s.splat_f(INV_2PI));
+    let t = s.clamp_f(t, zero, s.splat_f(0.5));
+    s.select_f(f.valid, signed_sum(s, &f, e, t), zero)
 }
 
 // ---------------------------------------------------------------------------------------------

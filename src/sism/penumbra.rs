@@ -44,6 +44,36 @@ pub struct PenumbraStats {
     pub samples_culled_by_wedge: u64,
     /// Sample-edge evaluations of Eq. 3 (active lanes).
     pub samples_evaluated: u64,
+    /// Samples inside at least one quad's wedge.
+    pub samples_reached: u64,
+    /// Quads evaluated per reached sample: `[p50, p90, p99, max]`.
+    pub quads_per_sample: [u64; 4],
+}
+
+impl PenumbraStats {
+    /// Adds the counters a bin task returned: `[rows culled, samples culled, samples evaluated]`.
+    pub fn add_bin(&mut self, c: [u64; 3]) {
+        self.rows_culled_by_wedge += c[0];
+        self.samples_culled_by_wedge += c[1];
+        self.samples_evaluated += c[2];
+    }
+
+    /// The distribution of quads per sample from every bin's per-sample counts (bin-local order;
+    /// the distribution does not depend on the order of bins).
+    pub fn set_quads_per_sample<'a>(&mut self, per_bin: impl Iterator<Item = &'a Vec<u32>> + Clone) {
+        let reached = per_bin.flat_map(|v| v.iter()).filter(|&&n| n > 0);
+        self.samples_reached = reached.clone().count() as u64;
+        self.quads_per_sample = super::percentiles(reached.map(|&n| n as u64));
+    }
+}
+
+/// Counts, per bin-local sample, the quads whose wedge contained it (`selected` from
+/// [`select_in_wedge`]). Statistics only: not part of the modelled work, so not counted.
+#[inline(always)]
+pub fn count_reached(reached: &mut [u32], selected: &[i32]) {
+    for &i in selected {
+        reached[i as usize] += 1;
+    }
 }
 
 /// A face-space view of one edge: its clipped projected endpoints and nearest depth.
@@ -189,30 +219,30 @@ pub fn occlusion(
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut sums = vec![0f32; grid.samples.pixel.len()];
-    let (counters, records): (Vec<[u64; 3]>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut sums, grid)
-        .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| !lists.of(*bin).is_empty())
-        .map(|(bin, out)| {
-            run_task(
-                exec,
-                PenumbraBin {
-                    edges,
-                    light_radius,
-                    widen: widen[grid.bins[bin].face as usize],
-                    grid,
-                    bin,
-                    quads: lists.of(bin),
-                    out,
-                },
-            )
-        })
-        .unzip();
-    for c in counters {
-        stats.rows_culled_by_wedge += c[0];
-        stats.samples_culled_by_wedge += c[1];
-        stats.samples_evaluated += c[2];
+    let (counters, records): (Vec<([u64; 3], Vec<u32>)>, Vec<Vec<TaskRecord>>) =
+        split_by_bins(&mut sums, grid)
+            .into_par_iter()
+            .enumerate()
+            .filter(|(bin, _)| !lists.of(*bin).is_empty())
+            .map(|(bin, out)| {
+                run_task(
+                    exec,
+                    PenumbraBin {
+                        edges,
+                        light_radius,
+                        widen: widen[grid.bins[bin].face as usize],
+                        grid,
+                        bin,
+                        quads: lists.of(bin),
+                        out,
+                    },
+                )
+            })
+            .unzip();
+    for c in &counters {
+        stats.add_bin(c.0);
     }
+    stats.set_quads_per_sample(counters.iter().map(|c| &c.1));
     (sums, records.into_iter().flatten().collect())
 }
 
@@ -396,12 +426,13 @@ pub fn bin_positions(grid: &Grid, bin: usize) -> (&[f32], &[f32], &[f32]) {
 }
 
 impl Kernel for PenumbraBin<'_> {
-    /// `[rows culled, samples culled, samples evaluated]`.
-    type Output = [u64; 3];
+    /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
+    type Output = ([u64; 3], Vec<u32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> [u64; 3] {
+    fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
         s.begin_task(TASK_PENUMBRA_BIN);
         let positions = bin_positions(self.grid, self.bin);
+        let mut reached = vec![0u32; positions.0.len()];
         // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
         // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
         let mut selected = vec![0i32; positions.0.len() + 16];
@@ -415,10 +446,11 @@ impl Kernel for PenumbraBin<'_> {
             };
             let n = select_in_wedge(s, self.grid, self.bin, &q, &mut selected, &mut culled);
             add_edge_terms(s, &selected, n, positions, edge, self.light_radius, self.out);
+            count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;
         }
         s.end_task();
-        [culled[0], culled[1], evaluated]
+        ([culled[0], culled[1], evaluated], reached)
     }
 }
 

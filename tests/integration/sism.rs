@@ -110,7 +110,11 @@ fn facing_away_receivers_and_empty_bins_cost_nothing() {
 #[test]
 fn same_bits_for_any_thread_count_and_for_both_compositions_run_twice() {
     let scene = load("sphere.toml", 160, 120);
-    for composition in [Composition::Additive, Composition::Independent] {
+    for composition in [
+        Composition::Additive,
+        Composition::Independent,
+        Composition::Sampled,
+    ] {
         let run = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -191,7 +195,11 @@ fn adversarial_scenes_stay_well_formed_and_close() {
     ];
     for (k, (body, light, bound)) in cases.iter().enumerate() {
         let scene = inline_scene(body, light);
-        for composition in [Composition::Additive, Composition::Independent] {
+        for composition in [
+            Composition::Additive,
+            Composition::Independent,
+            Composition::Sampled,
+        ] {
             let (r, frame) = score(&scene, 256, composition);
             assert_well_formed(&frame, &format!("case {k}"));
             eprintln!(
@@ -215,10 +223,12 @@ fn shared_scenes_within_measured_bounds() {
     }
     // Bounds are the figures measured at this size (see the closing notes) with a margin: they pin
     // regressions. The paper's additive composition darkens overlapping foliage (C = 0); the
-    // independent composition is the one held to the issue's 0.03 where it can be.
+    // light-point composition removes that and is held to the issue's 0.03 on the foliage.
     for (name, composition, bound) in [
         ("stanford-bunny.toml", Composition::Additive, 0.006),
         ("palm.toml", Composition::Independent, 0.025),
+        ("palm.toml", Composition::Sampled, 0.012),
+        ("japanese-maple.toml", Composition::Sampled, 0.02), // the issue asks 0.03
         ("cornell-box.toml", Composition::Additive, 0.02),
     ] {
         let scene = load(name, 200, 150);
@@ -235,7 +245,11 @@ fn shared_scenes_within_measured_bounds() {
 #[test]
 fn counting_execution_gives_the_same_bits_and_records_every_phase() {
     let scene = load("sphere.toml", 128, 96);
-    for composition in [Composition::Additive, Composition::Independent] {
+    for composition in [
+        Composition::Additive,
+        Composition::Independent,
+        Composition::Sampled,
+    ] {
         let native = sism_frame(&scene, composition);
         let options = SismOptions {
             composition,
@@ -254,7 +268,9 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
         assert!(native.records.is_empty());
         let phases: Vec<&str> = counted.records.iter().map(|p| p.phase.as_str()).collect();
         let expected: &[&str] = match composition {
-            Composition::Additive => &["eye_pass", "grid", "umbra", "penumbra", "resolve"],
+            Composition::Additive | Composition::Sampled => {
+                &["eye_pass", "grid", "umbra", "penumbra", "resolve"]
+            }
             Composition::Independent => &["eye_pass", "grid", "occlusion", "resolve"],
         };
         assert_eq!(phases, expected);
@@ -264,4 +280,78 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
             assert!(instructions > 0, "{}", p.phase);
         }
     }
+}
+
+/// With open planar occluders the outline is the same from every light point, so the light-point
+/// composition has no approximation left: each pixel's visibility must be the share of its 64 light
+/// points that a ray from the receiver reaches unblocked — ray-cast here to the very same points.
+#[test]
+fn light_point_counts_equal_ray_casts_to_the_same_points() {
+    use glam::Vec3;
+    use sism::sism::sampled::{light_point_offsets, LIGHT_POINTS};
+    // Three overlapping tilted plates at different heights (their shadows overlap) over the ground.
+    let plates = "[[quad]]\ncorner = [-0.8, 0.8, 0.6]\nedge_u = [1.0, 0.1, 0.0]\nedge_v = [0.1, 0.0, -1.0]\n\
+                  [[quad]]\ncorner = [-0.3, 1.2, 0.3]\nedge_u = [0.9, -0.2, 0.2]\nedge_v = [-0.1, 0.1, -0.9]\n\
+                  [[quad]]\ncorner = [-0.5, 0.5, -0.1]\nedge_u = [0.7, 0.0, -0.3]\nedge_v = [0.3, 0.05, -0.6]\n";
+    let scene = inline_scene(
+        &format!("{GROUND}{plates}"),
+        "[light]\ncenter = [0.2, 3.0, 0.1]\nradius = 0.8\n",
+    );
+    let frame = sism_frame(&scene, Composition::Sampled);
+    let tris: Vec<[Vec3; 3]> = scene.triangles().collect();
+    let c = Vec3::from(scene.light.center);
+    let r = scene.light.radius;
+    let blocked = |p: Vec3, q: Vec3| {
+        tris.iter().any(|t| {
+            // Moller-Trumbore on the segment p -> q, ignoring hits at the receiver itself.
+            let (e1, e2, d) = (t[1] - t[0], t[2] - t[0], q - p);
+            let h = d.cross(e2);
+            let det = e1.dot(h);
+            if det.abs() < 1e-12 {
+                return false;
+            }
+            let f = 1.0 / det;
+            let s = p - t[0];
+            let u = f * s.dot(h);
+            let qv = s.cross(e1);
+            let v = f * d.dot(qv);
+            let tt = f * e2.dot(qv);
+            (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && tt > 1e-4 && tt < 1.0
+        })
+    };
+    let (mut pixels, mut partial, mut off, mut sum_diff) = (0usize, 0usize, 0usize, 0.0f64);
+    for (pixel, (v, rcv)) in frame
+        .visibility
+        .values
+        .iter()
+        .zip(&frame.receivers.pixels)
+        .enumerate()
+    {
+        let Some(rcv) = rcv else { continue };
+        if *v < 0.0 {
+            continue;
+        }
+        let offsets = light_point_offsets(rcv.position - c, pixel as u32);
+        let lit = offsets
+            .iter()
+            .filter(|o| !blocked(rcv.position, c + **o * r))
+            .count();
+        let expected = lit as f32 / LIGHT_POINTS as f32;
+        pixels += 1;
+        partial += usize::from(lit > 0 && lit < LIGHT_POINTS);
+        let diff = (v - expected).abs();
+        sum_diff += diff as f64;
+        // One point may flip where it lies on an edge's boundary within rounding.
+        off += usize::from(diff > 1.5 / LIGHT_POINTS as f32);
+    }
+    eprintln!(
+        "{pixels} pixels, {partial} in penumbra, {off} off by more than one point, mean |diff| {:.5}",
+        sum_diff / pixels as f64
+    );
+    assert!(partial > 500, "the view shows overlapping penumbrae ({partial})");
+    assert!(
+        off * 1000 <= pixels,
+        "{off} of {pixels} pixels differ by more than one light point"
+    );
+    assert!(sum_diff / (pixels as f64) < 1e-3);
 }
