@@ -23,7 +23,7 @@ use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::EdgeRecord;
 use super::penumbra::{
-    add_edge_terms, bin_positions, count_reached, quad_in_bin, select_in_wedge, PenumbraStats,
+    add_edge_terms, bin_positions, count_reached, quad_in_bin, select_in_wedge, BinOutputs, PenumbraStats,
 };
 use super::silhouettes::SceneTopology;
 use super::umbra::{covered, row_span, split_by_bins, triangle_in_bin, UmbraStats};
@@ -54,15 +54,14 @@ pub fn visible_fraction(
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut visible = vec![1f32; inputs.grid.samples.pixel.len()];
-    let (counters, records): (Vec<([u64; 4], Vec<u32>)>, Vec<Vec<TaskRecord>>) =
-        split_by_bins(&mut visible, inputs.grid)
-            .into_par_iter()
-            .enumerate()
-            .filter(|(bin, _)| {
-                !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
-            })
-            .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
-            .unzip();
+    let (counters, records): BinOutputs<[u64; 4]> = split_by_bins(&mut visible, inputs.grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| {
+            !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
+        })
+        .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
+        .unzip();
     for (c, _) in &counters {
         umbra.samples_tested += c[0];
         penumbra.add_bin([c[1], c[2], c[3]]);

@@ -67,6 +67,10 @@ impl PenumbraStats {
     }
 }
 
+/// Bin tasks' outputs, unzipped: per bin its counters `C` and quads per bin-local sample, and its
+/// task records.
+pub type BinOutputs<C> = (Vec<(C, Vec<u32>)>, Vec<Vec<TaskRecord>>);
+
 /// Counts, per bin-local sample, the quads whose wedge contained it (`selected` from
 /// [`select_in_wedge`]). Statistics only: not part of the modelled work, so not counted.
 #[inline(always)]
@@ -219,26 +223,25 @@ pub fn occlusion(
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut sums = vec![0f32; grid.samples.pixel.len()];
-    let (counters, records): (Vec<([u64; 3], Vec<u32>)>, Vec<Vec<TaskRecord>>) =
-        split_by_bins(&mut sums, grid)
-            .into_par_iter()
-            .enumerate()
-            .filter(|(bin, _)| !lists.of(*bin).is_empty())
-            .map(|(bin, out)| {
-                run_task(
-                    exec,
-                    PenumbraBin {
-                        edges,
-                        light_radius,
-                        widen: widen[grid.bins[bin].face as usize],
-                        grid,
-                        bin,
-                        quads: lists.of(bin),
-                        out,
-                    },
-                )
-            })
-            .unzip();
+    let (counters, records): BinOutputs<[u64; 3]> = split_by_bins(&mut sums, grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| !lists.of(*bin).is_empty())
+        .map(|(bin, out)| {
+            run_task(
+                exec,
+                PenumbraBin {
+                    edges,
+                    light_radius,
+                    widen: widen[grid.bins[bin].face as usize],
+                    grid,
+                    bin,
+                    quads: lists.of(bin),
+                    out,
+                },
+            )
+        })
+        .unzip();
     for c in &counters {
         stats.add_bin(c.0);
     }

@@ -44,7 +44,9 @@ use sism_simd::{Kernel, Simd, TaskRecord};
 use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::{cross3, dot3, edge_frame, signed_sum, EdgeRecord};
-use super::penumbra::{bin_positions, count_reached, quad_in_bin, select_in_wedge, PenumbraStats};
+use super::penumbra::{
+    bin_positions, count_reached, quad_in_bin, select_in_wedge, BinOutputs, PenumbraStats,
+};
 use super::umbra::split_by_bins;
 use super::{run_task, Exec};
 
@@ -107,30 +109,29 @@ pub fn visible_fraction(
     let mut visible: Vec<f32> = depth.iter().map(|&d| if d == 0 { 1.0 } else { 0.0 }).collect();
     let points = point_set();
     let rotations = rotation_table();
-    let (counters, records): (Vec<([u64; 3], Vec<u32>)>, Vec<Vec<TaskRecord>>) =
-        split_by_bins(&mut visible, grid)
-            .into_par_iter()
-            .enumerate()
-            .filter(|(bin, _)| !lists.of(*bin).is_empty())
-            .map(|(bin, out)| {
-                let range = grid.bins[bin].samples.start as usize..grid.bins[bin].samples.end as usize;
-                run_task(
-                    exec,
-                    SampledBin {
-                        edges,
-                        light_radius,
-                        widen: widen[grid.bins[bin].face as usize],
-                        grid,
-                        bin,
-                        quads: lists.of(bin),
-                        depth: &depth[range],
-                        points: &points,
-                        rotations: (&rotations.0, &rotations.1),
-                        out,
-                    },
-                )
-            })
-            .unzip();
+    let (counters, records): BinOutputs<[u64; 3]> = split_by_bins(&mut visible, grid)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(bin, _)| !lists.of(*bin).is_empty())
+        .map(|(bin, out)| {
+            let range = grid.bins[bin].samples.start as usize..grid.bins[bin].samples.end as usize;
+            run_task(
+                exec,
+                SampledBin {
+                    edges,
+                    light_radius,
+                    widen: widen[grid.bins[bin].face as usize],
+                    grid,
+                    bin,
+                    quads: lists.of(bin),
+                    depth: &depth[range],
+                    points: &points,
+                    rotations: (&rotations.0, &rotations.1),
+                    out,
+                },
+            )
+        })
+        .unzip();
     for c in &counters {
         stats.add_bin(c.0);
     }
