@@ -23,7 +23,7 @@ use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::EdgeRecord;
 use super::penumbra::{
-    add_edge_terms, bin_positions, count_reached, quad_in_bin, select_in_wedge, BinOutputs, PenumbraStats,
+    add_edge_terms, count_reached, quad_in_bin, select_in_wedge, BinOutputs, BinPart, PenumbraStats,
 };
 use super::silhouettes::SceneTopology;
 use super::umbra::{covered, row_span, split_by_bins, triangle_in_bin, UmbraStats};
@@ -67,6 +67,7 @@ pub fn visible_fraction(
         penumbra.add_bin([c[1], c[2], c[3]]);
     }
     penumbra.set_quads_per_sample(counters.iter().map(|c| &c.1));
+    penumbra.tasks += counters.len() as u64;
     (visible, records.into_iter().flatten().collect())
 }
 
@@ -90,7 +91,9 @@ impl Kernel for OcclusionBin<'_> {
         let bin = self.bin;
         let base = grid.bins[bin].samples.start as usize;
         let n_samples = self.out.len();
-        let positions = bin_positions(grid, bin);
+        // One task per whole bin: the fused pass orders the bin's triangles and quads by object.
+        let part = BinPart::whole(grid, bin);
+        let positions = part.positions(grid);
         let widen = inp.widen[grid.bins[bin].face as usize];
 
         // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1).
@@ -162,7 +165,7 @@ impl Kernel for OcclusionBin<'_> {
                     let Some(q) = quad_in_bin(grid, bin, edge, inp.light_radius, widen) else {
                         continue;
                     };
-                    let n = select_in_wedge(s, grid, bin, &q, &mut selected, &mut culled);
+                    let n = select_in_wedge(s, grid, &part, &q, &mut selected, &mut culled);
                     add_edge_terms(s, &selected, n, positions, edge, inp.light_radius, &mut coverage);
                     count_reached(&mut reached, &selected[..n]);
                     evaluated += n as u64;

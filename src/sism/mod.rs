@@ -479,7 +479,7 @@ pub fn report(stats: &SismStats, out: &mut StatsReport) {
     let u = &stats.umbra;
     let p = &stats.penumbra;
     let e = &stats.eye_pass;
-    let rows: [(&str, u64, &str, &str); 32] = [
+    let rows: [(&str, u64, &str, &str); 33] = [
         (
             "eye.triangles_in",
             e.triangles_in,
@@ -660,6 +660,12 @@ pub fn report(stats: &SismStats, out: &mut StatsReport) {
             p.samples_evaluated.checked_div(stats.samples).unwrap_or(0),
             "evaluations",
             "Eq. 3 evaluations per sample (integer mean)",
+        ),
+        (
+            "penumbra.tasks",
+            p.tasks,
+            "tasks",
+            "penumbra tasks: bins, or single rows of columns of bins with more quad-sample pairs than SPLIT_WORK",
         ),
         (
             "penumbra.evaluations_per_quad",

@@ -21,7 +21,7 @@ use super::{run_task, Exec};
 use super::binning::{bin_items, BinLists};
 use super::grid::{FaceGrid, Grid};
 use super::occlusion::{edge_term, EdgeRecord};
-use super::umbra::{bins_of_columns, near_plane, row_span, split_by_bins};
+use super::umbra::{bins_of_columns, near_plane, row_span};
 
 /// Counters of the penumbra stage.
 #[derive(Clone, Copy, Debug, Default)]
@@ -48,6 +48,8 @@ pub struct PenumbraStats {
     pub samples_reached: u64,
     /// Quads evaluated per reached sample: `[p50, p90, p99, max]`.
     pub quads_per_sample: [u64; 4],
+    /// Penumbra tasks (bins, or rows of columns of heavy bins; see [`SPLIT_WORK`]).
+    pub tasks: u64,
 }
 
 impl PenumbraStats {
@@ -223,25 +225,26 @@ pub fn occlusion(
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut sums = vec![0f32; grid.samples.pixel.len()];
-    let (counters, records): BinOutputs<[u64; 3]> = split_by_bins(&mut sums, grid)
+    let parts = bin_parts(grid, lists);
+    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(&mut sums, &parts)
         .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| !lists.of(*bin).is_empty())
-        .map(|(bin, out)| {
+        .zip(&parts)
+        .map(|(out, part)| {
             run_task(
                 exec,
                 PenumbraBin {
                     edges,
                     light_radius,
-                    widen: widen[grid.bins[bin].face as usize],
+                    widen: widen[grid.bins[part.bin].face as usize],
                     grid,
-                    bin,
-                    quads: lists.of(bin),
+                    part,
+                    quads: lists.of(part.bin),
                     out,
                 },
             )
         })
         .unzip();
+    stats.tasks += parts.len() as u64;
     for c in &counters {
         stats.add_bin(c.0);
     }
@@ -258,9 +261,9 @@ pub struct PenumbraBin<'a> {
     pub light_radius: f32,
     pub widen: f32,
     pub grid: &'a Grid,
-    pub bin: usize,
+    pub part: &'a BinPart,
     pub quads: &'a [u32],
-    /// Penumbra sums of the bin's samples (bin-local indices).
+    /// Penumbra sums of the part's samples (part-local indices).
     pub out: &'a mut [f32],
 }
 
@@ -314,7 +317,7 @@ pub fn quad_in_bin(
     })
 }
 
-/// Packs into `selected` (bin-local indices, by compress-store) the bin's samples inside quad `q`'s
+/// Packs into `selected` (part-local indices, by compress-store) the part's samples inside quad `q`'s
 /// wedge: rows the wedge misses are skipped, then slices nearer than where it enters the row, then
 /// each sample is tested exactly against the wedge half-width at its depth. Returns how many were
 /// packed; adds `[rows culled, samples culled]` into `culled`.
@@ -322,14 +325,15 @@ pub fn quad_in_bin(
 pub fn select_in_wedge<S: Simd>(
     s: S,
     grid: &Grid,
-    bin: usize,
+    part: &BinPart,
     q: &QuadInBin,
     selected: &mut [i32],
     culled: &mut [u64; 2],
 ) -> usize {
+    let bin = part.bin;
     let bn = &grid.bins[bin];
     let g = &grid.faces[bn.face as usize];
-    let base = bn.samples.start as usize;
+    let base = part.samples.start;
     let smp = &grid.samples;
     let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
     let ab = q.b - q.a;
@@ -342,7 +346,7 @@ pub fn select_in_wedge<S: Simd>(
     let (inv_len2, inv_near, rv) = (s.splat_f(q.inv_len2), s.splat_f(q.inv_near), s.splat_f(q.r));
     let lane = s.index_i();
     let mut n = 0usize;
-    for row in q.c0.y..q.c1.y {
+    for row in q.c0.y.max(part.rows.start)..q.c1.y.min(part.rows.end) {
         // Wedge test for the row (Section 2.5): where the wedge enters it in depth.
         let lo = g.uv_min + UVec2::new(q.c0.x, row).as_vec2() * g.cell_size;
         let hi = g.uv_min + UVec2::new(q.c1.x, row + 1).as_vec2() * g.cell_size;
@@ -417,15 +421,97 @@ pub fn add_edge_terms<S: Simd>(
     }
 }
 
-/// The bin's sample positions (relative to the light centre) as slices indexed bin-locally.
-#[inline]
-pub fn bin_positions(grid: &Grid, bin: usize) -> (&[f32], &[f32], &[f32]) {
-    let r = grid.bins[bin].samples.start as usize..grid.bins[bin].samples.end as usize;
-    (
-        &grid.samples.x[r.clone()],
-        &grid.samples.y[r.clone()],
-        &grid.samples.z[r],
-    )
+/// One penumbra task: rows `rows` (face column rows) of bin `bin`, whose samples are the contiguous
+/// range `samples` of the sorted arrays. Kernels index the part's samples part-locally.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BinPart {
+    pub bin: usize,
+    pub rows: std::ops::Range<u32>,
+    pub samples: std::ops::Range<usize>,
+}
+
+impl BinPart {
+    /// The whole of bin `bin`.
+    pub fn whole(grid: &Grid, bin: usize) -> BinPart {
+        let bn = &grid.bins[bin];
+        let rows = bin_rows(grid, bin);
+        BinPart {
+            bin,
+            rows,
+            samples: bn.samples.start as usize..bn.samples.end as usize,
+        }
+    }
+
+    /// The part's sample positions (relative to the light centre), indexed part-locally.
+    #[inline]
+    pub fn positions<'g>(&self, grid: &'g Grid) -> (&'g [f32], &'g [f32], &'g [f32]) {
+        let r = self.samples.clone();
+        (
+            &grid.samples.x[r.clone()],
+            &grid.samples.y[r.clone()],
+            &grid.samples.z[r],
+        )
+    }
+}
+
+/// Face column rows covered by bin `bin`.
+fn bin_rows(grid: &Grid, bin: usize) -> std::ops::Range<u32> {
+    let bn = &grid.bins[bin];
+    let g = &grid.faces[bn.face as usize];
+    bn.column0.y..(bn.column0.y + grid.params.bin_columns).min(g.columns.y)
+}
+
+/// A bin whose estimated penumbra work (quads × samples) exceeds this is split into one task per row
+/// of columns: on a many-core chip one heavy bin (under a dense crown of leaves) would otherwise
+/// outlast every other core's share of the phase. Below it, splitting would only repeat the per-quad
+/// setup in each row.
+pub const SPLIT_WORK: u64 = 1 << 20;
+
+/// The penumbra tasks of the bins that have quads, in sorted-sample order.
+pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
+    let mut parts = Vec::new();
+    for bin in 0..grid.bins.len() {
+        let whole = BinPart::whole(grid, bin);
+        let quads = lists.of(bin).len() as u64;
+        if quads == 0 || whole.samples.is_empty() {
+            continue;
+        }
+        if quads * whole.samples.len() as u64 <= SPLIT_WORK {
+            parts.push(whole);
+            continue;
+        }
+        let bn = &grid.bins[bin];
+        let g = &grid.faces[bn.face as usize];
+        let (c0, c1) = (
+            bn.column0.x,
+            (bn.column0.x + grid.params.bin_columns).min(g.columns.x),
+        );
+        for row in whole.rows.clone() {
+            let (start, end) = row_span(grid, bin, UVec2::new(c0, row), UVec2::new(c1, row + 1), row, 0);
+            if start < end {
+                parts.push(BinPart {
+                    bin,
+                    rows: row..row + 1,
+                    samples: start..end,
+                });
+            }
+        }
+    }
+    parts
+}
+
+/// Disjoint mutable slices of `data` (sorted order) for `parts` (in sorted order, non-overlapping).
+pub fn split_by_parts<'a, T>(mut data: &'a mut [T], parts: &[BinPart]) -> Vec<&'a mut [T]> {
+    let mut at = 0;
+    let mut out = Vec::with_capacity(parts.len());
+    for p in parts {
+        let (_, rest) = data.split_at_mut(p.samples.start - at);
+        let (head, tail) = rest.split_at_mut(p.samples.len());
+        out.push(head);
+        data = tail;
+        at = p.samples.end;
+    }
+    out
 }
 
 impl Kernel for PenumbraBin<'_> {
@@ -434,7 +520,7 @@ impl Kernel for PenumbraBin<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
         s.begin_task(TASK_PENUMBRA_BIN);
-        let positions = bin_positions(self.grid, self.bin);
+        let positions = self.part.positions(self.grid);
         let mut reached = vec![0u32; positions.0.len()];
         // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
         // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
@@ -444,10 +530,10 @@ impl Kernel for PenumbraBin<'_> {
         for &e in self.quads {
             let edge = &self.edges[e as usize];
             s.scalar_ops(60);
-            let Some(q) = quad_in_bin(self.grid, self.bin, edge, self.light_radius, self.widen) else {
+            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light_radius, self.widen) else {
                 continue;
             };
-            let n = select_in_wedge(s, self.grid, self.bin, &q, &mut selected, &mut culled);
+            let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
             add_edge_terms(s, &selected, n, positions, edge, self.light_radius, self.out);
             count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;

@@ -45,9 +45,9 @@ use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::{cross3, dot3, edge_frame, signed_sum, EdgeRecord};
 use super::penumbra::{
-    bin_positions, count_reached, quad_in_bin, select_in_wedge, BinOutputs, PenumbraStats,
+    bin_parts, count_reached, quad_in_bin, select_in_wedge, split_by_parts, BinOutputs, BinPart,
+    PenumbraStats,
 };
-use super::umbra::split_by_bins;
 use super::{run_task, Exec};
 
 /// Points of the light disk at which each sample counts occluders (a multiple of 16).
@@ -109,22 +109,21 @@ pub fn visible_fraction(
     let mut visible: Vec<f32> = depth.iter().map(|&d| if d == 0 { 1.0 } else { 0.0 }).collect();
     let points = point_set();
     let rotations = rotation_table();
-    let (counters, records): BinOutputs<[u64; 3]> = split_by_bins(&mut visible, grid)
+    let parts = bin_parts(grid, lists);
+    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(&mut visible, &parts)
         .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| !lists.of(*bin).is_empty())
-        .map(|(bin, out)| {
-            let range = grid.bins[bin].samples.start as usize..grid.bins[bin].samples.end as usize;
+        .zip(&parts)
+        .map(|(out, part)| {
             run_task(
                 exec,
                 SampledBin {
                     edges,
                     light_radius,
-                    widen: widen[grid.bins[bin].face as usize],
+                    widen: widen[grid.bins[part.bin].face as usize],
                     grid,
-                    bin,
-                    quads: lists.of(bin),
-                    depth: &depth[range],
+                    part,
+                    quads: lists.of(part.bin),
+                    depth: &depth[part.samples.clone()],
                     points: &points,
                     rotations: (&rotations.0, &rotations.1),
                     out,
@@ -132,6 +131,7 @@ pub fn visible_fraction(
             )
         })
         .unzip();
+    stats.tasks += parts.len() as u64;
     for c in &counters {
         stats.add_bin(c.0);
     }
@@ -148,13 +148,13 @@ struct SampledBin<'a> {
     light_radius: f32,
     widen: f32,
     grid: &'a Grid,
-    bin: usize,
+    part: &'a BinPart,
     quads: &'a [u32],
-    /// Depth complexity at the light centre of the bin's samples (bin-local).
+    /// Depth complexity at the light centre of the part's samples (part-local).
     depth: &'a [i32],
     points: &'a PointSet,
     rotations: (&'a [f32], &'a [f32]),
-    /// Visible fraction of the bin's samples (bin-local).
+    /// Visible fraction of the part's samples (part-local).
     out: &'a mut [f32],
 }
 
@@ -169,7 +169,7 @@ struct DiskBases {
 #[inline(always)]
 fn disk_bases<S: Simd>(s: S, task: &SampledBin, positions: (&[f32], &[f32], &[f32])) -> DiskBases {
     let n = positions.0.len();
-    let base = task.grid.bins[task.bin].samples.start as usize;
+    let base = task.part.samples.start;
     // Pixel indices as i32 lanes (indices are < 2^31: images are at most 32768² pixels).
     let pixels: Vec<i32> = task.grid.samples.pixel[base..base + n]
         .iter()
@@ -223,7 +223,7 @@ impl Kernel for SampledBin<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
         s.begin_task(TASK_SAMPLED_BIN);
-        let positions = bin_positions(self.grid, self.bin);
+        let positions = self.part.positions(self.grid);
         let n_samples = positions.0.len();
         let mut reached = vec![0u32; n_samples];
         let bases = disk_bases(s, &self, positions);
@@ -239,10 +239,10 @@ impl Kernel for SampledBin<'_> {
         for &e in self.quads {
             let edge = &self.edges[e as usize];
             s.scalar_ops(60);
-            let Some(q) = quad_in_bin(self.grid, self.bin, edge, self.light_radius, self.widen) else {
+            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light_radius, self.widen) else {
                 continue;
             };
-            let n = select_in_wedge(s, self.grid, self.bin, &q, &mut selected, &mut culled);
+            let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
             add_edge_points(
                 s,
                 &selected[..n],
