@@ -94,6 +94,8 @@ pub fn run_task<K: sism_simd::Kernel>(exec: Exec, k: K) -> (K::Output, Vec<sism_
 pub struct SismOptions {
     pub grid: GridParams,
     pub composition: Composition,
+    /// Estimator of the light-point composition (`Composition::Sampled` only).
+    pub light_point_estimator: sampled::LightPointEstimator,
     /// Native (default) or counting execution.
     pub exec: Exec,
 }
@@ -265,6 +267,7 @@ pub fn render_frame(scene: &Scene, prepared: &PreparedScene, options: &SismOptio
                 &grid,
                 &lists,
                 &depth,
+                options.light_point_estimator,
                 &mut stats.penumbra,
                 exec,
             );

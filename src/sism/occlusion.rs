@@ -398,12 +398,18 @@ pub fn edge_term<S: Simd>(
     let Some(f) = edge_frame(s, m, px, py, pz, e, light_radius) else {
         return zero;
     };
+    s.select_f(f.valid, signed_sum(s, &f, e, region_area(s, &f)), zero)
+}
+
+/// Eq. 3 proper: `T = (θ - d (hi - lo)) / 2π ∈ [0, 1/2]`, the share of the unit disk inside the wedge
+/// through the clipped edge and beyond its line (unsigned; meaningful in `f.valid` lanes).
+#[inline(always)]
+pub fn region_area<S: Simd>(s: S, f: &EdgeFrame<S>) -> S::F32 {
     let w = s.sub_f(f.hi, f.lo);
     let dw = s.mul_f(f.dist, w);
     let theta = s.atan2_f(dw, s.fmadd(f.lo, f.hi, s.mul_f(f.dist, f.dist)));
     let t = s.mul_f(s.sub_f(theta, dw), s.splat_f(INV_2PI));
-    let t = s.clamp_f(t, zero, s.splat_f(0.5));
-    s.select_f(f.valid, signed_sum(s, &f, e, t), zero)
+    s.clamp_f(t, s.splat_f(0.0), s.splat_f(0.5))
 }
 
 // ---------------------------------------------------------------------------------------------

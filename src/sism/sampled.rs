@@ -43,7 +43,7 @@ use sism_simd::{Kernel, Simd, TaskRecord};
 
 use super::binning::BinLists;
 use super::grid::Grid;
-use super::occlusion::{cross3, dot3, edge_frame, signed_sum, EdgeRecord};
+use super::occlusion::{cross3, dot3, edge_frame, region_area, signed_sum, EdgeRecord};
 use super::penumbra::{
     bin_parts, count_reached, quad_in_bin, select_in_wedge, split_by_parts, BinOutputs, BinPart,
     PenumbraStats,
@@ -52,6 +52,22 @@ use super::{run_task, Exec};
 
 /// Points of the light disk at which each sample counts occluders (a multiple of 16).
 pub const LIGHT_POINTS: usize = 64;
+
+/// How a sample's visibility is formed from its light-point counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightPointEstimator {
+    /// Where every point's count is 0 or 1 (no two occluders overlap as far as the points see),
+    /// Eq. 4's analytic coverage (depth complexity + Σ Eq. 3 terms), which is then exact and free of
+    /// the points' quantisation noise; elsewhere the share of lit points. Against `Fraction` at
+    /// 800×600: the same MAE on the foliage, slightly lower elsewhere (conference 0.0014 vs 0.0015),
+    /// and single-occluder penumbrae as smooth as Eq. 4's (a light almost touching a box: MAE 0.0044
+    /// vs 0.0101). A control variate `A + (z - m)` everywhere was tried and rejected: in deep foliage
+    /// the mean count `m` over 64 points is far noisier than the lit share `z` (palm MAE 0.011).
+    #[default]
+    Hybrid,
+    /// The plain share of lit points (for tests that ray-cast to the very same points).
+    Fraction,
+}
 
 /// Vectors of 16 points.
 const GROUPS: usize = LIGHT_POINTS / 16;
@@ -102,6 +118,7 @@ pub fn visible_fraction(
     grid: &Grid,
     lists: &BinLists,
     depth: &[i32],
+    estimator: LightPointEstimator,
     stats: &mut PenumbraStats,
     exec: Exec,
 ) -> (Vec<f32>, Vec<TaskRecord>) {
@@ -124,6 +141,7 @@ pub fn visible_fraction(
                     part,
                     quads: lists.of(part.bin),
                     depth: &depth[part.samples.clone()],
+                    estimator,
                     points: &points,
                     rotations: (&rotations.0, &rotations.1),
                     out,
@@ -152,6 +170,7 @@ struct SampledBin<'a> {
     quads: &'a [u32],
     /// Depth complexity at the light centre of the part's samples (part-local).
     depth: &'a [i32],
+    estimator: LightPointEstimator,
     points: &'a PointSet,
     rotations: (&'a [f32], &'a [f32]),
     /// Visible fraction of the part's samples (part-local).
@@ -233,6 +252,11 @@ impl Kernel for SampledBin<'_> {
         let mut counts = COUNTS.with(|c| std::mem::take(&mut *c.borrow_mut()));
         counts.clear();
         counts.resize(n_samples * LIGHT_POINTS, 0);
+        // Σ Eq. 3 terms per sample (Eq. 4's analytic coverage, less the depth complexity).
+        let mut sums = match self.estimator {
+            LightPointEstimator::Hybrid => vec![0f32; n_samples],
+            LightPointEstimator::Fraction => Vec::new(),
+        };
         let mut selected = vec![0i32; n_samples + 16];
         let mut culled = [0u64; 2];
         let mut evaluated = 0u64;
@@ -252,20 +276,32 @@ impl Kernel for SampledBin<'_> {
                 edge,
                 self.light_radius,
                 &mut counts,
+                &mut sums,
             );
             count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;
         }
-        // V = share of points whose count (centre depth complexity + edge weights) is zero.
+        // Lit points: count (centre depth complexity + edge weights) exactly zero. A negative count (an
+        // edge subtracted where the light-centre silhouette differs from the point's) counts as
+        // occluded: measured closer to the reference on the shared scenes (stanford-bunny MAE 0.0015
+        // against 0.0024 when counted lit).
+        let inv_points = 1.0 / LIGHT_POINTS as f32;
         for i in 0..n_samples {
             let minus_depth = s.splat_i(-self.depth[i]);
-            let mut lit = 0;
+            let one_more = s.splat_i(1 - self.depth[i]);
+            let (mut lit, mut overlap) = (0, false);
             for g in 0..GROUPS {
                 let c = s.load_i(&counts[i * LIGHT_POINTS + 16 * g..]);
                 lit += s.mask_popcnt(s.cmp_eq_i(c, minus_depth));
+                // Counts outside {0, 1}: overlapping occluders (or a negative count).
+                overlap |= s.mask_any(s.mask_or(s.cmp_lt_i(c, minus_depth), s.cmp_gt_i(c, one_more)));
             }
-            s.scalar_ops(4);
-            self.out[i] = lit as f32 / LIGHT_POINTS as f32;
+            s.scalar_ops(6);
+            self.out[i] = if sums.is_empty() || overlap {
+                lit as f32 * inv_points
+            } else {
+                1.0 - (self.depth[i] as f32 + sums[i]).clamp(0.0, 1.0)
+            };
         }
         COUNTS.with(|c| *c.borrow_mut() = counts);
         s.end_task();
@@ -291,6 +327,7 @@ fn add_edge_points<S: Simd>(
     e: &EdgeRecord,
     light_radius: f32,
     counts: &mut [i32],
+    sums: &mut [f32],
 ) {
     let zero = s.splat_f(0.0);
     let one = s.splat_f(1.0);
@@ -309,6 +346,12 @@ fn add_edge_points<S: Simd>(
         let active = s.cmp_ne_f(weight, zero);
         if !s.mask_any(active) {
             continue;
+        }
+        if !sums.is_empty() {
+            // The signed Eq. 3 term (weight · T: the same value `edge_term` gives).
+            let term = s.mul_f(weight, region_area(s, &f));
+            let acc = s.mask_gather_f(zero, active, sums, idx);
+            s.mask_scatter_f(sums, active, idx, s.add_f(acc, term));
         }
         // Unit vectors of the line's frame (world axes): ĝ along the line, f̂ from the centre to it.
         // (No closures or `array::map` here: they would not inherit the kernel's target features.)
