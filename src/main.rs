@@ -50,7 +50,7 @@ enum Command {
         height: Option<u32>,
         /// Time the SISM frame on a modelled many-core chip: a preset (larrabee-8/16/24/32/48/64) or a
         /// machine TOML file. Runs the kernels under the counting context and also writes machine.toml
-        /// and records.bin (for `sism replay`); needs --algo sism or sism-independent.
+        /// and records.bin (for `sism replay`); needs --algo sism, sism-independent or sism-sampled.
         #[arg(long)]
         machine: Option<String>,
         /// No progress bar.
@@ -89,7 +89,7 @@ enum Command {
         /// The base machine: a preset or a machine TOML file.
         #[arg(long, default_value = "larrabee-24")]
         machine: String,
-        /// Algorithm (sism or sism-independent).
+        /// Algorithm (sism, sism-independent or sism-sampled).
         #[arg(long, value_enum, default_value = "sism")]
         algo: Algorithm,
         /// Output folder (created if missing).
