@@ -34,11 +34,9 @@ pub struct MachineReport {
 /// Times the frame whose records are `records` on `config`. Deterministic: a function of the records
 /// (line addresses enter only through their first-touch order) and the configuration.
 pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineReport {
-    let mut machine = timing::Machine::new(config);
-    let phases: Vec<PhaseReport> = records
-        .iter()
-        .map(|p| machine.run_phase(&p.phase, &p.tasks))
-        .collect();
+    let named: Vec<(&str, &[sism_simd::TaskRecord])> =
+        records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect();
+    let phases = timing::simulate_frame(config, &named);
     let frame = timing::frame_total(&phases, config);
     MachineReport {
         config: config.clone(),
