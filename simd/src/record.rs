@@ -233,6 +233,15 @@ impl Reader<'_> {
 
 #[inline]
 pub(crate) fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    // Line-stream tokens are mostly 1 or 2 bytes.
+    if v < 0x80 {
+        out.push(v as u8);
+        return;
+    }
+    if v < 0x4000 {
+        out.extend_from_slice(&[(v as u8) | 0x80, (v >> 7) as u8]);
+        return;
+    }
     while v >= 0x80 {
         out.push((v as u8) | 0x80);
         v >>= 7;
@@ -444,6 +453,17 @@ impl Iterator for LineIter<'_> {
     }
 }
 
+std::thread_local! {
+    /// Byte buffers of finished encoders, reused by the next encoder on the thread. A stream grows
+    /// by doubling; growing every task's stream in fresh memory costs page faults (the kernel zeroes
+    /// each new page) and, while frees are held ([`crate::HoldFrees`]), memory. A finished stream
+    /// is copied out at its exact length instead.
+    static SCRATCH: core::cell::RefCell<Vec<Vec<u8>>> = const { core::cell::RefCell::new(Vec::new()) };
+}
+
+/// Scratch buffers kept per thread (more are freed).
+const SCRATCH_KEEP: usize = 4;
+
 /// Incremental encoder for [`LineStream`].
 #[derive(Clone, Debug, Default)]
 pub(crate) struct LineEncoder {
@@ -464,7 +484,7 @@ impl LineEncoder {
         e
     }
 
-    #[inline]
+    #[inline(always)]
     pub(crate) fn push(&mut self, line: u64, write: bool) {
         if self.s.count != 0 && line == self.s.last && write == self.last_write {
             return;
@@ -484,9 +504,15 @@ impl LineEncoder {
         }
     }
 
+    #[inline]
     fn flush(&mut self) {
         if self.run_len == 0 {
             return;
+        }
+        if self.s.bytes.capacity() == 0 {
+            self.s.bytes = SCRATCH
+                .with(|p| p.borrow_mut().pop())
+                .unwrap_or_else(|| Vec::with_capacity(4096));
         }
         if self.run_len == 1 {
             put_varint(&mut self.s.bytes, self.run_tok << 1);
@@ -499,6 +525,18 @@ impl LineEncoder {
 
     pub(crate) fn finish(mut self) -> LineStream {
         self.flush();
+        if self.s.bytes.capacity() > 0 {
+            // Keep the (grown) buffer for the next encoder; the stream gets an exact copy.
+            let mut scratch = core::mem::take(&mut self.s.bytes);
+            self.s.bytes = scratch.as_slice().to_vec();
+            scratch.clear();
+            SCRATCH.with(|p| {
+                let mut p = p.borrow_mut();
+                if p.len() < SCRATCH_KEEP {
+                    p.push(scratch);
+                }
+            });
+        }
         self.s
     }
 
