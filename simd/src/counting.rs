@@ -120,7 +120,7 @@ fn line_of(addr: usize) -> u64 {
     (addr as u64) >> 6
 }
 
-/// Distinct values among up to 16 line numbers.
+/// Distinct values among up to 16 line numbers (sorts them).
 fn distinct(lines: &mut [u64]) -> u64 {
     lines.sort_unstable();
     let mut n = 0;
@@ -230,14 +230,29 @@ impl<'r, B: Simd> Counting<'r, B> {
             lines[n] = line_of(base.wrapping_add(4 * idx[lane] as usize));
             n += 1;
         }
+        let lines = &mut lines[..n];
+        // Lanes usually hold increasing indices (compress-stored), so the lines come in runs: push
+        // one line per run (the encoder drops a repeat of the line just pushed anyway) and, when
+        // the lines never decrease, count the distinct ones as the runs without sorting.
+        let mut runs = 0;
+        let mut sorted = true;
         self.rec.with(|st| {
-            if st.record_lines {
-                for &l in &lines[..n] {
-                    st.enc.push(l, write);
+            for i in 0..lines.len() {
+                if i > 0 && lines[i] == lines[i - 1] {
+                    continue;
+                }
+                runs += 1;
+                sorted &= i == 0 || lines[i] > lines[i - 1];
+                if st.record_lines {
+                    st.enc.push(lines[i], write);
                 }
             }
         });
-        distinct(&mut lines[..n])
+        if sorted {
+            runs
+        } else {
+            distinct(lines)
+        }
     }
 }
 

@@ -78,6 +78,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
+pub mod alloc;
 mod common;
 mod counting;
 mod dispatch;
@@ -90,6 +91,7 @@ mod simd;
 #[cfg(target_arch = "x86_64")]
 pub mod avx512;
 
+pub use alloc::{HoldFrees, LineAlloc};
 pub use counting::{Counting, Recorder};
 pub use dispatch::{
     available, available_backends, best_available, parse_backend, run_counting, run_counting_with,

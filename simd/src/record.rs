@@ -233,6 +233,15 @@ impl Reader<'_> {
 
 #[inline]
 pub(crate) fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    // Line-stream tokens are mostly 1 or 2 bytes.
+    if v < 0x80 {
+        out.push(v as u8);
+        return;
+    }
+    if v < 0x4000 {
+        out.extend_from_slice(&[(v as u8) | 0x80, (v >> 7) as u8]);
+        return;
+    }
     while v >= 0x80 {
         out.push((v as u8) | 0x80);
         v >>= 7;
@@ -242,6 +251,12 @@ pub(crate) fn put_varint(out: &mut Vec<u8>, mut v: u64) {
 
 #[inline]
 fn get_varint(b: &[u8]) -> Option<(u64, usize)> {
+    // Most tokens of a line stream fit one byte.
+    if let Some(&b0) = b.first() {
+        if b0 < 0x80 {
+            return Some((b0 as u64, 1));
+        }
+    }
     let mut v = 0u64;
     for (i, &byte) in b.iter().enumerate().take(10) {
         v |= ((byte & 0x7F) as u64) << (7 * i);
@@ -341,6 +356,53 @@ impl LineStream {
             self.bytes.len() as f64 / self.count as f64
         }
     }
+    /// Calls `f(line, is_write)` for every access in order: the same sequence as
+    /// [`LineStream::iter`], decoded in one tight loop (runs of a repeated token stay in an inner
+    /// loop). The machine model's replay uses it.
+    #[inline]
+    pub fn for_each(&self, mut f: impl FnMut(u64, bool)) {
+        let b = &self.bytes[..];
+        let mut pos = 0;
+        let mut heads = Heads::default();
+        while pos < b.len() {
+            let Some((tok, n)) = get_varint(&b[pos..]) else {
+                return;
+            };
+            pos += n;
+            let reps = if tok & 1 == 1 {
+                let Some((c, n)) = get_varint(&b[pos..]) else {
+                    return;
+                };
+                pos += n;
+                c + 2
+            } else {
+                1
+            };
+            let tok = tok >> 1;
+            let write = tok & 1 == 1;
+            let slot = ((tok >> 1) & (SLOTS as u64 - 1)) as usize;
+            let delta = unzigzag(tok >> 3);
+            if delta.unsigned_abs() <= NEAR {
+                // Each repetition continues the same head (what `Heads::update` does for a near
+                // delta), so the head only needs writing back once.
+                let mut line = heads.line[slot];
+                for _ in 0..reps {
+                    line = line.wrapping_add(delta as u64);
+                    f(line, write);
+                }
+                heads.t += reps;
+                heads.line[slot] = line;
+                heads.stamp[slot] = heads.t;
+            } else {
+                for _ in 0..reps {
+                    let line = heads.line[slot].wrapping_add(delta as u64);
+                    heads.update(slot, delta, line);
+                    f(line, write);
+                }
+            }
+        }
+    }
+
     /// Decode: `(line, is_write)` in access order.
     pub fn iter(&self) -> LineIter<'_> {
         LineIter {
@@ -391,6 +453,17 @@ impl Iterator for LineIter<'_> {
     }
 }
 
+std::thread_local! {
+    /// Byte buffers of finished encoders, reused by the next encoder on the thread. A stream grows
+    /// by doubling; growing every task's stream in fresh memory costs page faults (the kernel zeroes
+    /// each new page) and, while frees are held ([`crate::HoldFrees`]), memory. A finished stream
+    /// is copied out at its exact length instead.
+    static SCRATCH: core::cell::RefCell<Vec<Vec<u8>>> = const { core::cell::RefCell::new(Vec::new()) };
+}
+
+/// Scratch buffers kept per thread (more are freed).
+const SCRATCH_KEEP: usize = 4;
+
 /// Incremental encoder for [`LineStream`].
 #[derive(Clone, Debug, Default)]
 pub(crate) struct LineEncoder {
@@ -411,7 +484,7 @@ impl LineEncoder {
         e
     }
 
-    #[inline]
+    #[inline(always)]
     pub(crate) fn push(&mut self, line: u64, write: bool) {
         if self.s.count != 0 && line == self.s.last && write == self.last_write {
             return;
@@ -431,9 +504,15 @@ impl LineEncoder {
         }
     }
 
+    #[inline]
     fn flush(&mut self) {
         if self.run_len == 0 {
             return;
+        }
+        if self.s.bytes.capacity() == 0 {
+            self.s.bytes = SCRATCH
+                .with(|p| p.borrow_mut().pop())
+                .unwrap_or_else(|| Vec::with_capacity(4096));
         }
         if self.run_len == 1 {
             put_varint(&mut self.s.bytes, self.run_tok << 1);
@@ -446,6 +525,18 @@ impl LineEncoder {
 
     pub(crate) fn finish(mut self) -> LineStream {
         self.flush();
+        if self.s.bytes.capacity() > 0 {
+            // Keep the (grown) buffer for the next encoder; the stream gets an exact copy.
+            let mut scratch = core::mem::take(&mut self.s.bytes);
+            self.s.bytes = scratch.as_slice().to_vec();
+            scratch.clear();
+            SCRATCH.with(|p| {
+                let mut p = p.borrow_mut();
+                if p.len() < SCRATCH_KEEP {
+                    p.push(scratch);
+                }
+            });
+        }
         self.s
     }
 
@@ -482,6 +573,26 @@ mod tests {
         assert_eq!(s.len(), want.len() as u64);
         let got: Vec<_> = s.iter().collect();
         assert_eq!(got, want);
+        let mut each = Vec::new();
+        s.for_each(|l, w| each.push((l, w)));
+        assert_eq!(each, want);
+    }
+
+    #[test]
+    fn far_runs_roundtrip() {
+        // Repeated far jumps (each token moves to the least recently used head) and near runs.
+        let mut e = LineEncoder::default();
+        let mut want = Vec::new();
+        for k in 0..200u64 {
+            let line = if k % 50 < 30 { k * 5000 } else { 1_000_000 + k };
+            e.push(line, k % 3 == 0);
+            want.push((line, k % 3 == 0));
+        }
+        let s = e.finish();
+        let mut each = Vec::new();
+        s.for_each(|l, w| each.push((l, w)));
+        assert_eq!(each, want);
+        assert_eq!(s.iter().collect::<Vec<_>>(), want);
     }
 
     #[test]

@@ -488,3 +488,57 @@ fn counting_records_memory() {
     assert!(lines.iter().take(16).all(|&(_, w)| !w));
     assert!(lines.last().unwrap().1, "fetch-add recorded as a write");
 }
+
+proptest! {
+    /// Gathers and scatters record, per instruction, the active lanes' lines in lane order (without
+    /// consecutive repeats) and count their distinct lines, whether the indices come sorted (the
+    /// compress-stored case, counted from the runs) or not (counted by sorting).
+    #[test]
+    fn indexed_lines_match_a_lane_by_lane_model(
+        idx in prop::array::uniform16(0i32..256),
+        sorted in any::<bool>(),
+        mask in any::<u16>(),
+        write in any::<bool>(),
+    ) {
+        let mut idx = idx;
+        if sorted {
+            idx.sort_unstable();
+        }
+        #[repr(C, align(64))]
+        struct A([f32; 256]);
+        let mut a = Box::new(A([0.0; 256]));
+        let m = Mask16(mask);
+        let rec = Recorder::new();
+        struct K<'a>(&'a mut [f32], [i32; 16], Mask16, bool);
+        impl sism_simd::Kernel for K<'_> {
+            type Output = ();
+            #[inline(always)]
+            fn run<S: Simd>(self, s: S) {
+                s.begin_task(0);
+                let idx = s.from_array_i(self.1);
+                if self.3 {
+                    s.mask_scatter_f(self.0, self.2, idx, s.splat_f(1.0));
+                } else {
+                    let _ = s.mask_gather_f(s.splat_f(0.0), self.2, self.0, idx);
+                }
+                s.end_task();
+            }
+        }
+        sism_simd::run_counting(&rec, K(&mut a.0, idx, m, write));
+        let t = &rec.take_tasks()[0];
+        let base = a.0.as_ptr() as u64 / 64;
+        let lanes: Vec<u64> = m.iter().map(|l| base + idx[l] as u64 / 16).collect();
+        let mut want: Vec<(u64, bool)> = Vec::new();
+        for &l in &lanes {
+            if want.last() != Some(&(l, write)) {
+                want.push((l, write));
+            }
+        }
+        let mut distinct = lanes.clone();
+        distinct.sort_unstable();
+        distinct.dedup();
+        let c = t.counters;
+        prop_assert_eq!(if write { c.scatter_lines } else { c.gather_lines }, distinct.len() as u64);
+        prop_assert_eq!(t.lines.iter().collect::<Vec<_>>(), want);
+    }
+}

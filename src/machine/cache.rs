@@ -37,10 +37,39 @@ impl Hasher for LineHasher {
     }
 }
 
+/// Lines per page of the id table: 1024 lines, 64 KiB of host memory. Pages are large enough that
+/// a task's few streams (a bin's x, y, z, out arrays) each stay within one or two pages.
+const PAGE_LINES: u64 = 1024;
+/// Entries of the direct-mapped memo of recently used pages (a task interleaves a handful of
+/// streams; each usually keeps its own entry).
+const MEMO: usize = 16;
+const NO_ID: u32 = u32::MAX;
+
 /// Compact line ids in first-touch order (see the module documentation).
-#[derive(Default, Clone)]
+///
+/// A two-level table: a hash map from the page number (`line / PAGE_LINES`) to a dense block of
+/// `PAGE_LINES` ids, with a small memo of recent pages in front of the map. Streams of nearby lines
+/// (nearly every access) then cost an array lookup, not a hash probe; the ids are the same as a
+/// plain map's.
+#[derive(Clone)]
 pub struct LineIds {
-    map: HashMap<u64, u32, BuildHasherDefault<LineHasher>>,
+    pages: HashMap<u64, u32, BuildHasherDefault<LineHasher>>,
+    /// `PAGE_LINES` ids per page, [`NO_ID`] for lines not touched yet.
+    ids: Vec<u32>,
+    /// `(page, offset of its block in ids)`; page `u64::MAX` is never a real page.
+    memo: [(u64, u32); MEMO],
+    next: u32,
+}
+
+impl Default for LineIds {
+    fn default() -> Self {
+        LineIds {
+            pages: HashMap::default(),
+            ids: Vec::new(),
+            memo: [(u64::MAX, 0); MEMO],
+            next: 0,
+        }
+    }
 }
 
 impl LineIds {
@@ -51,16 +80,34 @@ impl LineIds {
     /// The id of `line`, assigning the next free id on first touch.
     #[inline]
     pub fn id(&mut self, line: u64) -> u32 {
-        let next = self.map.len() as u32;
-        *self.map.entry(line).or_insert(next)
+        let page = line / PAGE_LINES;
+        let m = (page as usize) % MEMO;
+        let block = if self.memo[m].0 == page {
+            self.memo[m].1
+        } else {
+            let fresh = self.ids.len() as u32;
+            let block = *self.pages.entry(page).or_insert(fresh);
+            if block == fresh {
+                self.ids.resize(self.ids.len() + PAGE_LINES as usize, NO_ID);
+            }
+            self.memo[m] = (page, block);
+            block
+        };
+        let e = &mut self.ids[(block as u64 + line % PAGE_LINES) as usize];
+        if *e == NO_ID {
+            assert!(self.next < NO_ID >> 1, "more than 2^31 distinct lines");
+            *e = self.next;
+            self.next += 1;
+        }
+        *e
     }
     /// Distinct lines seen so far.
     pub fn len(&self) -> usize {
-        self.map.len()
+        self.next as usize
     }
     /// No line seen yet?
     pub fn is_empty(&self) -> bool {
-        self.map.is_empty()
+        self.next == 0
     }
 }
 
@@ -76,16 +123,18 @@ pub struct Access {
 const EMPTY: u32 = u32::MAX;
 
 /// A set-associative LRU cache over compact line ids.
+///
+/// Each set keeps its ways in recency order, most recent first, free ways (`EMPTY`) at the end;
+/// an entry is `id << 1 | dirty`. A hit moves the line to the front (usually it is already there,
+/// or second); a miss shifts the set by one, dropping the last way (free, or the least recently
+/// used line) and putting the new line in front. That is exactly true LRU with a free way used
+/// first, without timestamps.
 #[derive(Clone, Debug)]
 pub struct Cache {
     set_mask: u32,
     ways: usize,
-    /// `sets × ways` resident line ids (`EMPTY` when free).
+    /// `sets × ways` entries, each set in recency order.
     tags: Vec<u32>,
-    /// Last-use time of each way (larger = more recent).
-    stamps: Vec<u64>,
-    dirty: Vec<bool>,
-    clock: u64,
 }
 
 impl Cache {
@@ -99,14 +148,10 @@ impl Cache {
             sets.is_power_of_two(),
             "cache sets must be a power of two, got {sets}"
         );
-        let n = sets as usize * ways;
         Cache {
             set_mask: sets as u32 - 1,
             ways,
-            tags: vec![EMPTY; n],
-            stamps: vec![0; n],
-            dirty: vec![false; n],
-            clock: 0,
+            tags: vec![EMPTY; sets as usize * ways],
         }
     }
 
@@ -117,38 +162,33 @@ impl Cache {
 
     /// Accesses `line` (a read, or a write when `write`): on a hit it becomes most recently used; on
     /// a miss it is allocated in its set over the least recently used way (a free way first).
+    /// Line ids must be below 2^31 (one bit of each entry is the dirty flag).
     #[inline]
     pub fn access(&mut self, line: u32, write: bool) -> Access {
-        self.clock += 1;
+        debug_assert!(line < EMPTY >> 1);
         let base = (line & self.set_mask) as usize * self.ways;
-        let tags = &self.tags[base..base + self.ways];
-        if let Some(w) = tags.iter().position(|&t| t == line) {
-            self.stamps[base + w] = self.clock;
-            self.dirty[base + w] |= write;
+        let set = &mut self.tags[base..base + self.ways];
+        let key = line << 1;
+        if set[0] | 1 == key | 1 {
+            set[0] |= write as u32;
             return Access {
                 hit: true,
                 writeback: false,
             };
         }
-        // Victim: the first free way, else the least recently used (lowest way on ties, which
-        // cannot happen since stamps are unique once set).
-        let mut victim = 0;
-        let mut oldest = u64::MAX;
-        for w in 0..self.ways {
-            if self.tags[base + w] == EMPTY {
-                victim = w;
-                break;
-            }
-            if self.stamps[base + w] < oldest {
-                oldest = self.stamps[base + w];
-                victim = w;
-            }
+        if let Some(w) = set.iter().position(|&t| t | 1 == key | 1) {
+            let e = set[w] | write as u32;
+            set.copy_within(0..w, 1);
+            set[0] = e;
+            return Access {
+                hit: true,
+                writeback: false,
+            };
         }
-        let i = base + victim;
-        let writeback = self.tags[i] != EMPTY && self.dirty[i];
-        self.tags[i] = line;
-        self.stamps[i] = self.clock;
-        self.dirty[i] = write;
+        let victim = set[self.ways - 1];
+        let writeback = victim != EMPTY && victim & 1 == 1;
+        set.copy_within(0..self.ways - 1, 1);
+        set[0] = key | write as u32;
         Access {
             hit: false,
             writeback,
@@ -158,7 +198,9 @@ impl Cache {
     /// Is `line` resident (no state change)?
     pub fn contains(&self, line: u32) -> bool {
         let base = (line & self.set_mask) as usize * self.ways;
-        self.tags[base..base + self.ways].contains(&line)
+        self.tags[base..base + self.ways]
+            .iter()
+            .any(|&t| t != EMPTY && t >> 1 == line)
     }
 }
 

@@ -31,14 +31,25 @@ pub struct MachineReport {
     pub frame: PhaseReport,
 }
 
+/// Renders one frame with `options` (whose `exec` should be [`crate::sism::Exec::Counting`]) while
+/// holding frees ([`sism_simd::HoldFrees`]): with [`sism_simd::LineAlloc`] as the global allocator
+/// (the `sism` binary, the machine tests and bench) no address is reused within the frame, so its
+/// records, and the simulated cycles, are the same in every run and for any host thread count.
+pub fn counted_frame(
+    scene: &crate::scene::Scene,
+    prepared: &crate::sism::PreparedScene,
+    options: &crate::sism::SismOptions,
+) -> crate::sism::SismFrame {
+    let _hold = sism_simd::HoldFrees::new();
+    crate::sism::render_frame(scene, prepared, options)
+}
+
 /// Times the frame whose records are `records` on `config`. Deterministic: a function of the records
 /// (line addresses enter only through their first-touch order) and the configuration.
 pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineReport {
-    let mut machine = timing::Machine::new(config);
-    let phases: Vec<PhaseReport> = records
-        .iter()
-        .map(|p| machine.run_phase(&p.phase, &p.tasks))
-        .collect();
+    let named: Vec<(&str, &[sism_simd::TaskRecord])> =
+        records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect();
+    let phases = timing::simulate_frame(config, &named);
     let frame = timing::frame_total(&phases, config);
     MachineReport {
         config: config.clone(),

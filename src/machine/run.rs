@@ -59,7 +59,7 @@ pub fn render_on_machine(scene: &Scene, composition: Composition, config: &Machi
         exec: Exec::Counting,
         ..Default::default()
     };
-    let frame = sism::render_frame(scene, &prepared, &options);
+    let frame = super::counted_frame(scene, &prepared, &options);
     let render_seconds = t0.elapsed().as_secs_f64();
     sism::report(&frame.stats, &mut stats);
     let t1 = Instant::now();
@@ -159,7 +159,7 @@ pub fn study(scene: &Scene, options: &StudyOptions) -> anyhow::Result<Vec<StudyP
         exec: Exec::Counting,
         ..Default::default()
     };
-    let frame = sism::render_frame(scene, &prepared, &sism_options);
+    let frame = super::counted_frame(scene, &prepared, &sism_options);
     super::save_records(&options.out.join("records.bin"), &frame.records)?;
     super::write_config(&options.out, &options.base)?;
 

@@ -225,30 +225,46 @@ impl<'a> Machine<'a> {
 
     /// Runs `task` on `core`: replays its lines through the core's caches.
     pub fn run_task(&mut self, core: usize, task: &TaskRecord, mem: &mut MemoryCounts) -> TaskCost {
+        let mut accesses = Vec::new();
+        map_lines(&mut self.ids, task, &mut accesses);
+        self.run_mapped(core, &task.counters, &accesses, mem)
+    }
+
+    /// Runs a task of counters `counters` whose line stream is already mapped to ids ([`map_lines`])
+    /// on `core`.
+    fn run_mapped(
+        &mut self,
+        core: usize,
+        counters: &Counters,
+        accesses: &[u32],
+        mem: &mut MemoryCounts,
+    ) -> TaskCost {
         let m = self.config;
-        let (issue, atomics) = compute_cost(&task.counters, m);
+        let (issue, atomics) = compute_cost(counters, m);
         let c = &mut self.cores[core];
-        let mut stall = 0u64;
         let (l1_lat, l2_lat) = (m.l1_latency as u64, m.l2_latency as u64);
-        for (line, write) in task.lines.iter() {
-            let id = self.ids.id(line);
-            mem.accesses += 1;
+        // Hits counted in the loop, misses summed from the counts after it.
+        let (mut l1_hits, mut l2_hits, mut l2_misses, mut writebacks) = (0u64, 0u64, 0u64, 0u64);
+        for &a in accesses {
+            let (id, write) = (a >> 1, a & 1 == 1);
             if c.l1.access(id, write).hit {
-                stall += l1_lat;
+                l1_hits += 1;
                 continue;
             }
-            mem.l1_misses += 1;
-            let a = c.l2.access(id, write);
-            if a.writeback {
-                mem.writebacks += 1;
-            }
-            if a.hit {
-                stall += l2_lat;
+            let r = c.l2.access(id, write);
+            writebacks += r.writeback as u64;
+            if r.hit {
+                l2_hits += 1;
             } else {
-                mem.l2_misses += 1;
-                stall += self.dram_miss;
+                l2_misses += 1;
             }
         }
+        let n = accesses.len() as u64;
+        mem.accesses += n;
+        mem.l1_misses += n - l1_hits;
+        mem.l2_misses += l2_misses;
+        mem.writebacks += writebacks;
+        let stall = l1_hits * l1_lat + l2_hits * l2_lat + l2_misses * self.dram_miss;
         let exposed = exposed_stall(stall, issue + atomics, m.threads_per_core);
         TaskCost {
             issue,
@@ -260,6 +276,21 @@ impl<'a> Machine<'a> {
 
     /// Replays one phase: schedules its tasks, then the barrier.
     pub fn run_phase(&mut self, phase: &str, tasks: &[TaskRecord]) -> PhaseReport {
+        let mut ids = std::mem::take(&mut self.ids);
+        let r = self.run_phase_with(phase, tasks, |task, out| map_lines(&mut ids, task, out));
+        self.ids = ids;
+        r
+    }
+
+    /// [`Machine::run_phase`] with each task's accesses supplied by `mapped(task, out)`, which puts
+    /// them into `out` as [`map_lines`] does (tasks are asked for in record order). The pipelined
+    /// replay ([`simulate_frame`]) maps lines on another thread.
+    fn run_phase_with(
+        &mut self,
+        phase: &str,
+        tasks: &[TaskRecord],
+        mut mapped: impl FnMut(&TaskRecord, &mut Vec<u32>),
+    ) -> PhaseReport {
         let m = self.config;
         let n = m.cores as usize;
         let mut busy = vec![0u64; n];
@@ -267,10 +298,12 @@ impl<'a> Machine<'a> {
         let mut memory = MemoryCounts::default();
         let mut counters = Counters::default();
         let mut schedule = Vec::with_capacity(tasks.len());
+        let mut accesses = Vec::new();
         for task in tasks {
             // Least busy core, ties to the lowest index.
             let core = (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core");
-            let cost = self.run_task(core, task, &mut memory);
+            mapped(task, &mut accesses);
+            let cost = self.run_mapped(core, &task.counters, &accesses, &mut memory);
             busy[core] += cost.cycles();
             schedule.push((core as u32, cost.cycles()));
             issue += cost.issue;
@@ -304,6 +337,51 @@ impl<'a> Machine<'a> {
             dram_bound,
         }
     }
+}
+
+/// Tasks mapped ahead of the cache replay (bounds the memory held by the pipeline: a task's buffer
+/// is 4 bytes per line access, a few MB for the largest tasks).
+const PIPELINE_DEPTH: usize = 16;
+
+/// Replays a whole frame (phases in order) on a cold chip, in two pipelined stages: one thread
+/// decodes each task's line stream and maps it to first-touch ids (record order), the calling thread
+/// schedules the tasks and replays the ids through the caches. Both stages run in record order, so
+/// the result is the same as [`Machine::run_phase`] phase after phase, whatever the host's threads.
+pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) -> Vec<PhaseReport> {
+    let mut machine = Machine::new(config);
+    let mut ids = std::mem::take(&mut machine.ids);
+    std::thread::scope(|scope| {
+        let (full_tx, full_rx) = crossbeam::channel::bounded::<Vec<u32>>(PIPELINE_DEPTH);
+        let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
+        scope.spawn(move || {
+            for task in phases.iter().flat_map(|p| p.1.iter()) {
+                let mut buf = empty_rx.try_recv().unwrap_or_default();
+                map_lines(&mut ids, task, &mut buf);
+                if full_tx.send(buf).is_err() {
+                    return;
+                }
+            }
+        });
+        phases
+            .iter()
+            .map(|&(name, tasks)| {
+                machine.run_phase_with(name, tasks, |_, out| {
+                    let buf = full_rx.recv().expect("the mapping thread maps every task");
+                    // Hand the previous buffer back for reuse (the mapper may have finished).
+                    let _ = empty_tx.send(std::mem::replace(out, buf));
+                })
+            })
+            .collect()
+    })
+}
+
+/// Decodes `task`'s line stream into `out` as `id << 1 | is_write`, ids from `ids` (first touch over
+/// the frame, so tasks must be mapped in frame order).
+pub fn map_lines(ids: &mut LineIds, task: &TaskRecord, out: &mut Vec<u32>) {
+    out.clear();
+    out.reserve(task.lines.len() as usize);
+    task.lines
+        .for_each(|line, write| out.push(ids.id(line) << 1 | write as u32));
 }
 
 /// The frame's totals from its phases: cycles, stack, counters and memory counts summed; the
