@@ -79,6 +79,9 @@ const ROTATIONS: usize = 256;
 struct PointSet {
     x: [[f32; 16]; GROUPS],
     y: [[f32; 16]; GROUPS],
+    /// Largest radius of each group's points: the spiral's groups are rings (radii grow with the
+    /// index), and a ring entirely nearer the centre than an edge's line holds no point beyond it.
+    ring_max: [f32; GROUPS],
 }
 
 /// Fibonacci spiral: point `k` at radius `√((k + ½) / N)` and angle `k · golden angle`, so each point
@@ -88,12 +91,15 @@ fn point_set() -> PointSet {
     let mut set = PointSet {
         x: [[0.0; 16]; GROUPS],
         y: [[0.0; 16]; GROUPS],
+        ring_max: [0.0; GROUPS],
     };
     for k in 0..LIGHT_POINTS {
         let r = ((k as f64 + 0.5) / LIGHT_POINTS as f64).sqrt();
         let a = k as f64 * golden;
         set.x[k / 16][k % 16] = (r * a.cos()) as f32;
         set.y[k / 16][k % 16] = (r * a.sin()) as f32;
+        let g = &mut set.ring_max[k / 16];
+        *g = g.max((set.x[k / 16][k % 16].hypot(set.y[k / 16][k % 16])) * (1.0 + 1e-6));
     }
     set
 }
@@ -393,6 +399,7 @@ fn add_edge_points<S: Simd>(
             s.to_array_f(s.fnmadd(d, gx, s.mul_f(hi, fx))),
             s.to_array_f(s.fnmadd(d, gy, s.mul_f(hi, fy))),
         ];
+        let dist = s.to_array_f(d);
         let w = s.to_array_i(s.cvtr_f_i(weight));
         let at = s.to_array_i(idx);
         let mut lanes = active.bits();
@@ -412,6 +419,10 @@ fn add_edge_points<S: Simd>(
             let row = at[lane] as usize * LIGHT_POINTS;
             s.scalar_ops(6);
             for g in 0..GROUPS {
+                // (Slack of 1e-6 on the ring radius: rounding can never put a skipped point inside.)
+                if points.ring_max[g] < dist[lane] {
+                    continue;
+                }
                 let px = s.load_f(&points.x[g]);
                 let py = s.load_f(&points.y[g]);
                 let beyond = s.cmp_ge_f(s.fmadd(c[0], px, s.fmadd(c[1], py, c[2])), zero);
