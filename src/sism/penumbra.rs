@@ -226,30 +226,44 @@ pub fn occlusion(
 ) -> (Vec<f32>, Vec<TaskRecord>) {
     let mut sums = vec![0f32; grid.samples.pixel.len()];
     let parts = bin_parts(grid, lists);
-    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(&mut sums, &parts)
+    let records = run_parts(&mut sums, &parts, stats, exec, |part, out| PenumbraBin {
+        edges,
+        light_radius,
+        widen: widen[grid.bins[part.bin].face as usize],
+        grid,
+        part,
+        quads: lists.of(part.bin),
+        out,
+    });
+    (sums, records)
+}
+
+/// Runs one penumbra task per part (from [`bin_parts`]; `task` builds it from the part and the part's
+/// slice of `data`, in sorted-sample order), folds the tasks' counters into `stats` and returns their
+/// records in task order.
+pub fn run_parts<'a, T, K, F>(
+    data: &'a mut [T],
+    parts: &'a [BinPart],
+    stats: &mut PenumbraStats,
+    exec: Exec,
+    task: F,
+) -> Vec<TaskRecord>
+where
+    T: Send,
+    K: Kernel<Output = ([u64; 3], Vec<u32>)>,
+    F: Fn(&'a BinPart, &'a mut [T]) -> K + Sync,
+{
+    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(data, parts)
         .into_par_iter()
-        .zip(&parts)
-        .map(|(out, part)| {
-            run_task(
-                exec,
-                PenumbraBin {
-                    edges,
-                    light_radius,
-                    widen: widen[grid.bins[part.bin].face as usize],
-                    grid,
-                    part,
-                    quads: lists.of(part.bin),
-                    out,
-                },
-            )
-        })
+        .zip(parts)
+        .map(|(out, part)| run_task(exec, task(part, out)))
         .unzip();
     stats.tasks += parts.len() as u64;
     for c in &counters {
         stats.add_bin(c.0);
     }
     stats.set_quads_per_sample(counters.iter().map(|c| &c.1));
-    (sums, records.into_iter().flatten().collect())
+    records.into_iter().flatten().collect()
 }
 
 /// Task kind of penumbra bins in counting records.

@@ -38,17 +38,15 @@
 //! [`edge_term`](super::occlusion::edge_term)), then per lane 4 × (6 FMAs, 3 compares, a masked add)
 //! over the points — about 6× the Eq. 3 evaluation.
 
-use rayon::prelude::*;
 use sism_simd::{Kernel, Simd, TaskRecord};
 
 use super::binning::BinLists;
 use super::grid::Grid;
 use super::occlusion::{cross3, dot3, edge_frame, region_area, signed_sum, EdgeRecord};
 use super::penumbra::{
-    bin_parts, count_reached, quad_in_bin, select_in_wedge, split_by_parts, BinOutputs, BinPart,
-    PenumbraStats,
+    bin_parts, count_reached, quad_in_bin, run_parts, select_in_wedge, BinPart, PenumbraStats,
 };
-use super::{run_task, Exec};
+use super::Exec;
 
 /// Points of the light disk at which each sample counts occluders (a multiple of 16).
 pub const LIGHT_POINTS: usize = 64;
@@ -133,34 +131,20 @@ pub fn visible_fraction(
     let points = point_set();
     let rotations = rotation_table();
     let parts = bin_parts(grid, lists);
-    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(&mut visible, &parts)
-        .into_par_iter()
-        .zip(&parts)
-        .map(|(out, part)| {
-            run_task(
-                exec,
-                SampledBin {
-                    edges,
-                    light_radius,
-                    widen: widen[grid.bins[part.bin].face as usize],
-                    grid,
-                    part,
-                    quads: lists.of(part.bin),
-                    depth: &depth[part.samples.clone()],
-                    estimator,
-                    points: &points,
-                    rotations: (&rotations.0, &rotations.1),
-                    out,
-                },
-            )
-        })
-        .unzip();
-    stats.tasks += parts.len() as u64;
-    for c in &counters {
-        stats.add_bin(c.0);
-    }
-    stats.set_quads_per_sample(counters.iter().map(|c| &c.1));
-    (visible, records.into_iter().flatten().collect())
+    let records = run_parts(&mut visible, &parts, stats, exec, |part, out| SampledBin {
+        edges,
+        light_radius,
+        widen: widen[grid.bins[part.bin].face as usize],
+        grid,
+        part,
+        quads: lists.of(part.bin),
+        depth: &depth[part.samples.clone()],
+        estimator,
+        points: &points,
+        rotations: (&rotations.0, &rotations.1),
+        out,
+    });
+    (visible, records)
 }
 
 /// Task kind of light-point penumbra bins in counting records.
