@@ -334,22 +334,50 @@ pub fn build(
     }
     cell_start[n_bins * cells_per_bin] = samples.len() as u32;
 
-    // Gather the sorted structure of arrays: one random-access pass (a sample's fields share a cache
-    // line), then streaming passes per field.
-    let sorted_in: Vec<SampleIn> = sorted_index.par_iter().map(|&i| samples[i as usize]).collect();
-    drop(sorted_index);
-    let field = |f: fn(&SampleIn) -> f32| -> Vec<f32> { sorted_in.par_iter().map(f).collect() };
-    let sorted = SortedSamples {
-        x: field(|s| s.q.x),
-        y: field(|s| s.q.y),
-        z: field(|s| s.q.z),
-        u: field(|s| s.uv.x),
-        v: field(|s| s.uv.y),
-        depth: field(|s| s.depth),
-        cos_theta: field(|s| s.cos_theta),
-        pixel: sorted_in.par_iter().map(|s| s.pixel).collect(),
+    // Gather the sorted structure of arrays in one parallel pass: each sample is read once (its fields
+    // share a cache line) and its eight fields written to eight streams.
+    let n = sorted_index.len();
+    let mut sorted = SortedSamples {
+        x: vec![0.0; n],
+        y: vec![0.0; n],
+        z: vec![0.0; n],
+        u: vec![0.0; n],
+        v: vec![0.0; n],
+        depth: vec![0.0; n],
+        pixel: vec![0; n],
+        cos_theta: vec![0.0; n],
     };
-    drop(sorted_in);
+    {
+        const C: usize = 16_384;
+        let SortedSamples {
+            x,
+            y,
+            z,
+            u,
+            v,
+            depth,
+            pixel,
+            cos_theta,
+        } = &mut sorted;
+        x.par_chunks_mut(C)
+            .zip(y.par_chunks_mut(C))
+            .zip(z.par_chunks_mut(C))
+            .zip(u.par_chunks_mut(C))
+            .zip(v.par_chunks_mut(C))
+            .zip(depth.par_chunks_mut(C))
+            .zip(pixel.par_chunks_mut(C))
+            .zip(cos_theta.par_chunks_mut(C))
+            .zip(sorted_index.par_chunks(C))
+            .for_each(|((((((((x, y), z), u), v), depth), pixel), cos_theta), index)| {
+                for (k, &i) in index.iter().enumerate() {
+                    let s = &samples[i as usize];
+                    (x[k], y[k], z[k]) = (s.q.x, s.q.y, s.q.z);
+                    (u[k], v[k], depth[k]) = (s.uv.x, s.uv.y, s.depth);
+                    (pixel[k], cos_theta[k]) = (s.pixel, s.cos_theta);
+                }
+            });
+    }
+    drop(sorted_index);
 
     // Bin descriptors with their sample ranges and depth bounds.
     let mut bins = Vec::with_capacity(n_bins);
