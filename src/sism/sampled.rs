@@ -28,15 +28,26 @@
 //! of counted triangles covering it, so `V = #{points with count 0} / LIGHT_POINTS` (then the horizon
 //! term, as an independent occluder). The mean of the counts is exactly Eq. 4's sum in the limit of
 //! many points; the light-centre silhouette approximation (single point of projection) remains.
+//! Where every count is 0 or 1 nothing overlaps (as far as the points see) and Eq. 4's analytic
+//! value, accumulated alongside, is used instead: exact there and free of point noise (see
+//! [`LightPointEstimator`]).
+//!
+//! Section 5.2 of the paper names bitwise coverage masks (Schwarz and Stamminger 2007) as the way to
+//! compute `C`, at the price of aliasing. Counts rather than bits let overlaps within one closed mesh
+//! cancel as they should, the per-pixel rotation turns the aliasing into fine noise, and the analytic
+//! fallback keeps single-occluder penumbrae smooth.
 //!
 //! The points are a Fibonacci (sunflower) spiral — evenly spread, no clumps — expressed in an
 //! orthonormal basis of each sample's light disk, rotated per pixel by one of 256 angles chosen by
 //! hashing the pixel index, so that the quantisation error of 64 points turns into fine noise
-//! instead of contour bands. Counters are 32-bit lanes, 64 per sample (256 bytes), allocated per bin.
+//! instead of contour bands. Counters are 32-bit lanes, 64 per sample (256 bytes), in a buffer each
+//! host thread reuses across its bins. The spiral's groups of 16 are rings; rings nearer the centre
+//! than an edge's line are skipped.
 //!
 //! Cost: per (sample, edge) the vector part of Eq. 3 up to the clipped positions (shared with
 //! [`edge_term`](super::occlusion::edge_term)), then per lane 4 × (6 FMAs, 3 compares, a masked add)
-//! over the points — about 6× the Eq. 3 evaluation.
+//! over the points. Measured: 1.6–1.9× the additive penumbra natively at 1600×1200, 2.6× on the
+//! modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
 use sism_simd::{Kernel, Simd, TaskRecord};
 
