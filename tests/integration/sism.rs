@@ -34,6 +34,11 @@ fn sism_frame(scene: &Scene, composition: Composition) -> SismFrame {
     render_frame(scene, &PreparedScene::new(scene), &options)
 }
 
+/// The frame's visibility values as bits, for exact comparisons.
+fn bits(f: &SismFrame) -> Vec<u32> {
+    f.visibility.values.iter().map(|v| v.to_bits()).collect()
+}
+
 fn score(scene: &Scene, spp: u32, composition: Composition) -> (ErrorReport, SismFrame) {
     let frame = sism_frame(scene, composition);
     let report = compare(&reference(scene, spp), &frame.visibility).unwrap();
@@ -126,13 +131,6 @@ fn same_bits_for_any_thread_count_and_for_both_compositions_run_twice() {
                 .install(|| sism_frame(&scene, composition))
         };
         let (a, b) = (run(1), run(3));
-        let bits = |f: &SismFrame| {
-            f.visibility
-                .values
-                .iter()
-                .map(|v| v.to_bits())
-                .collect::<Vec<_>>()
-        };
         assert_eq!(bits(&a), bits(&b), "{composition:?}");
         assert_eq!(
             a.stats.penumbra.samples_evaluated,
@@ -260,13 +258,6 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
             ..Default::default()
         };
         let counted = render_frame(&scene, &PreparedScene::new(&scene), &options);
-        let bits = |f: &SismFrame| {
-            f.visibility
-                .values
-                .iter()
-                .map(|v| v.to_bits())
-                .collect::<Vec<_>>()
-        };
         assert_eq!(bits(&native), bits(&counted), "{composition:?}");
         assert!(native.records.is_empty());
         let phases: Vec<&str> = counted.records.iter().map(|p| p.phase.as_str()).collect();
