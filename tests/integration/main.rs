@@ -3,6 +3,7 @@
 mod bad_input;
 mod closed_forms;
 mod convergence;
+mod golden;
 mod obj_loading;
 mod shared_scenes;
 mod sism;

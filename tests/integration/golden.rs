@@ -1,0 +1,137 @@
+//! Bit-exact regression guard: every registered algorithm's image and work counters on the repo's
+//! scenes (and two shared meshes) against checksums stored in `tests/golden/`, so a refactor that
+//! changes a single bit of a visibility value or a counter fails here.
+//!
+//! A golden file holds `visibility <hash> <pixels>` (FNV-1a 64 of the values' bits) and one line per
+//! counter, `name value-as-f64-bits value`. Host times (`time.*`) and throughputs (`*_per_second`)
+//! are not deterministic and are left out. `SISM_BLESS=1 cargo test --test integration golden`
+//! rewrites the files; never bless to make a refactor pass: a diff there is a behaviour change.
+
+use std::path::{Path, PathBuf};
+
+use sism::frame::VisibilityImage;
+use sism::output::stats::StatsReport;
+use sism::scene::Scene;
+
+/// (case name, scene file relative to the repo, width, height, algorithms).
+const CASES: &[(&str, &str, u32, u32)] = &[
+    ("plate", "scenes/plate.toml", 96, 72),
+    ("sphere", "scenes/sphere.toml", 96, 72),
+    ("room", "scenes/room.toml", 64, 64),
+    ("palm", "scenes/palm.toml", 96, 96),
+    ("japanese-maple", "scenes/japanese-maple.toml", 96, 72),
+];
+
+const ALGORITHMS: &[&str] = &[
+    "reference",
+    "reference-additive",
+    "sism",
+    "sism-independent",
+    "sism-sampled",
+];
+
+/// Light-disk samples of the ray-traced algorithms in the golden renders (few: the check is bits).
+const SPP: u32 = 16;
+
+fn fnv1a(values: &[f32]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for v in values {
+        for b in v.to_bits().to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// The golden text of one render.
+fn golden_text(visibility: &VisibilityImage, stats: &StatsReport) -> String {
+    let mut s = format!(
+        "visibility {:016x} {}\n",
+        fnv1a(&visibility.values),
+        visibility.values.len()
+    );
+    for stat in &stats.stats {
+        if stat.name.starts_with("time.") || stat.name.ends_with("_per_second") {
+            continue;
+        }
+        s += &format!("{} {:016x} {}\n", stat.name, stat.value.to_bits(), stat.value);
+    }
+    s
+}
+
+fn render(scene: &Scene, algorithm: &str) -> (VisibilityImage, StatsReport) {
+    use sism::reference::ReferenceOptions;
+    use sism::render::{self, Algorithm};
+    let algo = match algorithm {
+        "reference" => Algorithm::Reference,
+        "reference-additive" => Algorithm::ReferenceAdditive,
+        "sism" => Algorithm::Sism,
+        "sism-independent" => Algorithm::SismIndependent,
+        "sism-sampled" => Algorithm::SismSampled,
+        other => panic!("unknown algorithm {other}"),
+    };
+    let options = ReferenceOptions {
+        spp: SPP,
+        ..Default::default()
+    };
+    let r = render::render(scene, algo, &options);
+    (r.visibility, r.stats)
+}
+
+fn golden_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden")
+}
+
+#[test]
+fn images_and_counters_match_the_stored_checksums() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let bless = std::env::var_os("SISM_BLESS").is_some();
+    let mut failures = Vec::new();
+    let mut checked = 0;
+    for &(case, file, width, height) in CASES {
+        let path = root.join(file);
+        let mut scene = match Scene::load(&path) {
+            Ok(s) => s,
+            // The shared meshes live beside the repository; outside CI a checkout may lack them.
+            Err(e) if crate::util::shared_scenes().is_none() => {
+                eprintln!("skipping {case}: {e}");
+                continue;
+            }
+            Err(e) => panic!("{case}: {e}"),
+        };
+        scene.camera.width = width;
+        scene.camera.height = height;
+        for &algorithm in ALGORITHMS {
+            let (visibility, stats) = render(&scene, algorithm);
+            let text = golden_text(&visibility, &stats);
+            let golden = golden_dir().join(format!("{case}.{algorithm}.txt"));
+            if bless {
+                std::fs::create_dir_all(golden_dir()).unwrap();
+                std::fs::write(&golden, &text).unwrap();
+                continue;
+            }
+            let want = std::fs::read_to_string(&golden)
+                .unwrap_or_else(|e| panic!("{}: {e} (bless with SISM_BLESS=1)", golden.display()));
+            checked += 1;
+            if want != text {
+                let diff: Vec<String> = want
+                    .lines()
+                    .zip(text.lines())
+                    .filter(|(a, b)| a != b)
+                    .map(|(a, b)| format!("    want {a}\n    got  {b}"))
+                    .collect();
+                failures.push(format!(
+                    "{case} {algorithm}: {} lines want, {} got\n{}",
+                    want.lines().count(),
+                    text.lines().count(),
+                    diff.join("\n")
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "golden mismatches:\n{}", failures.join("\n"));
+    if !bless {
+        assert!(checked >= 15, "only {checked} golden renders checked");
+    }
+}
