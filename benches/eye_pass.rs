@@ -6,10 +6,11 @@
 use std::path::Path;
 
 use criterion::{criterion_group, Criterion};
+use sism::algorithms::reference::cast_primary_rays;
 use sism::bvh::SceneBvh;
-use sism::reference::cast_primary_rays;
+use sism::exec::Exec;
+use sism::raster::eye::{eye_pass_with, receivers};
 use sism::scene::Scene;
-use sism::sism::eye_pass::{eye_pass, eye_pass_with, Exec};
 
 fn bench_scene(c: &mut Criterion, name: &str, path: &Path) {
     if !path.is_file() {
@@ -20,14 +21,18 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path) {
     scene.camera.width = 1600;
     scene.camera.height = 1200;
     let bvh = SceneBvh::build(&scene);
-    // Phase times: the fastest of a few runs (the first one pays page faults and pool start-up).
+    // The fastest of a few runs (the first one pays page faults and pool start-up).
     let runs: Vec<_> = (0..5)
-        .map(|_| eye_pass_with(&scene, Exec::Native).stats)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            let (out, _) = eye_pass_with(&scene, Exec::Native);
+            (t.elapsed(), out.stats)
+        })
         .collect();
-    let s = *runs.iter().min_by_key(|s| s.time).unwrap();
+    let (time, s) = *runs.iter().min_by_key(|r| r.0).unwrap();
     eprintln!(
         "{name}: {} triangles, {} binned, {} pairs, {} blocks ({} full), {} depth writes, {} pixels; \
-         front {:.2} ms, back (raster + resolve) {:.2} ms, total {:.2} ms",
+         eye pass {:.2} ms",
         s.triangles_in,
         s.screen_triangles,
         s.tile_triangle_pairs,
@@ -35,13 +40,11 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path) {
         s.blocks_full,
         s.depth_writes,
         s.pixels_covered,
-        s.time_front_end.as_secs_f64() * 1e3,
-        s.time_back_end.as_secs_f64() * 1e3,
-        s.time.as_secs_f64() * 1e3
+        time.as_secs_f64() * 1e3
     );
     let mut group = c.benchmark_group(format!("primary_{name}_1600x1200"));
     group.sample_size(10);
-    group.bench_function("eye_pass (raster)", |b| b.iter(|| eye_pass(&scene)));
+    group.bench_function("eye_pass (raster)", |b| b.iter(|| receivers(&scene)));
     group.bench_function("cast_primary_rays (CWBVH)", |b| {
         b.iter(|| cast_primary_rays(&scene, &bvh))
     });
@@ -86,7 +89,7 @@ fn cpu_times() {
             (cpu / n as f64 * 1e3, t0.elapsed().as_secs_f64() / n as f64 * 1e3)
         };
         let (rc, rw) = measure(&|| {
-            std::hint::black_box(eye_pass(&scene));
+            std::hint::black_box(receivers(&scene));
         });
         let (pc, pw) = measure(&|| {
             std::hint::black_box(cast_primary_rays(&scene, &bvh));

@@ -9,9 +9,11 @@
 use std::path::Path;
 use std::time::Instant;
 
-use sism::machine::{counted_frame, simulate, MachineConfig};
+use sism::algorithms::{self, PreparedScene};
+use sism::exec::Exec;
+use sism::machine::{simulate, MachineConfig};
+use sism::render::{render_prepared, RenderOptions};
 use sism::scene::Scene;
-use sism::sism::{render_frame, Composition, Exec, PreparedScene, SismOptions};
 
 /// As in the `sism` binary: mimalloc, with line-aligned blocks and no reuse within a counted frame.
 #[global_allocator]
@@ -33,17 +35,19 @@ fn main() {
     scene.camera.width = 1600;
     scene.camera.height = 1200;
     let prepared = PreparedScene::new(&scene);
+    let algo = algorithms::find("sism").expect("registered");
+    let params = algo.params(&[]).expect("defaults");
     let run = |exec| {
-        let options = SismOptions {
-            exec,
-            composition: Composition::Additive,
-            ..Default::default()
-        };
         let t = Instant::now();
-        let frame = match exec {
-            Exec::Native => render_frame(&scene, &prepared, &options),
-            Exec::Counting => counted_frame(&scene, &prepared, &options),
-        };
+        let frame = render_prepared(
+            &prepared,
+            algo,
+            &params,
+            &RenderOptions {
+                exec,
+                progress: false,
+            },
+        );
         (t.elapsed().as_secs_f64(), frame)
     };
     let median = |mut v: Vec<f64>| {

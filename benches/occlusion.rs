@@ -7,7 +7,7 @@
 //! mixed). Throughput is reported as edge terms (sample × edge) per second ("elem/s").
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use sism::sism::occlusion::{edge_term_scalar, AccumulateEdgeTerms, EdgeRecord};
+use sism::algorithms::sism::occlusion::{edge_term_scalar, AccumulateEdgeTerms, EdgeRecord};
 use sism_simd::{available_backends, run_with};
 
 struct Rng(u64);

@@ -7,8 +7,8 @@
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use sism::algorithms::reference::{cast_primary_rays, render_visibility, ReferenceOptions};
 use sism::bvh::SceneBvh;
-use sism::reference::{cast_primary_rays, render_visibility, ReferenceOptions};
 use sism::scene::Scene;
 
 fn bench_scene(c: &mut Criterion, name: &str, path: &Path, width: u32, height: u32) {
@@ -27,13 +27,13 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path, width: u32, height: u
         progress: false,
         ..Default::default()
     };
-    let (_, rays) = render_visibility(&scene, &bvh, &receivers, &options);
+    let (_, rays) = render_visibility(&scene, &bvh, None, &receivers, &options);
     let mut group = c.benchmark_group("reference_shadow_rays");
     group.throughput(Throughput::Elements(rays));
     group.sample_size(10);
     group.bench_function(
         format!("{name} ({} triangles, {rays} rays)", scene.triangle_count()),
-        |b| b.iter(|| render_visibility(&scene, &bvh, &receivers, &options)),
+        |b| b.iter(|| render_visibility(&scene, &bvh, None, &receivers, &options)),
     );
     group.finish();
 }

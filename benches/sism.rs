@@ -9,8 +9,10 @@ use std::path::Path;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use sism::algorithms::sism::{render_scene, Composition, SismOptions};
+use sism::exec::{Exec, PhaseTime};
+use sism::scene::topology::SceneTopology;
 use sism::scene::Scene;
-use sism::sism::{render_frame, Composition, PhaseTimes, PreparedScene, SismOptions};
 
 fn median(mut v: Vec<Duration>) -> f64 {
     v.sort();
@@ -31,36 +33,36 @@ fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
     };
     scene.camera.width = 1600;
     scene.camera.height = 1200;
-    let prepared = PreparedScene::new(&scene);
+    let topo = SceneTopology::build(&scene);
     let options = SismOptions {
         composition,
         ..Default::default()
     };
-    let mut phases: Vec<PhaseTimes> = Vec::new();
+    let mut phases: Vec<Vec<PhaseTime>> = Vec::new();
     let mut group = c.benchmark_group("sism_frame_1600x1200");
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(20));
     group.bench_function(format!("{name} {composition:?}"), |b| {
         b.iter(|| {
-            let frame = render_frame(&scene, &prepared, &options);
-            phases.push(frame.stats.times);
+            let frame = render_scene(&scene, &topo, &options, Exec::Native);
+            phases.push(frame.log.times().to_vec());
         })
     });
     group.finish();
     if phases.is_empty() {
         return; // filtered out on the command line (`cargo bench --bench sism -- Sampled`)
     }
-    let get = |f: fn(&PhaseTimes) -> Duration| median(phases.iter().map(f).collect());
-    eprintln!(
-        "{name} {composition:?} per-phase medians (ms): eye {:.1} | grid {:.1} | umbra {:.1} | silhouettes {:.1} | penumbra {:.1} | resolve {:.1} | frame {:.1}",
-        get(|p| p.eye_pass),
-        get(|p| p.grid),
-        get(|p| p.umbra),
-        get(|p| p.silhouettes),
-        get(|p| p.penumbra),
-        get(|p| p.resolve),
-        get(|p| p.total()),
-    );
+    // Per-phase medians over the measured frames, from the frames' own phase timers.
+    let mut line = format!("{name} {composition:?} per-phase medians (ms):");
+    for (k, t) in phases[0].iter().enumerate() {
+        line += &format!(
+            " {} {:.1} |",
+            t.name,
+            median(phases.iter().map(|p| p[k].host).collect())
+        );
+    }
+    let frame = median(phases.iter().map(|p| p.iter().map(|t| t.host).sum()).collect());
+    eprintln!("{line} frame {frame:.1}");
 }
 
 fn frames(c: &mut Criterion) {

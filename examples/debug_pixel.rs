@@ -7,7 +7,10 @@
 
 use std::path::Path;
 
-use sism::sism::{occlusion::edge_term_scalar, render_frame, PreparedScene, SismOptions};
+use sism::algorithms::sism::silhouettes::silhouettes;
+use sism::algorithms::sism::{occlusion::edge_term_scalar, render_scene, SismOptions};
+use sism::exec::Exec;
+use sism::scene::topology::SceneTopology;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -20,11 +23,11 @@ fn main() -> anyhow::Result<()> {
     let threshold: f32 = args.get(3).map(|t| t.parse()).transpose()?.unwrap_or(0.3);
     scene.camera.width = reference.width;
     scene.camera.height = reference.height;
-    let prepared = PreparedScene::new(&scene);
-    let frame = render_frame(&scene, &prepared, &SismOptions::default());
+    let topo = SceneTopology::build(&scene);
+    let frame = render_scene(&scene, &topo, &SismOptions::default(), Exec::Native);
     let bvh = sism::bvh::SceneBvh::build(&scene);
     let c = scene.light.center();
-    let silhouettes = prepared.topology.silhouettes(c);
+    let silhouettes = silhouettes(&topo, c);
     let worst = frame
         .visibility
         .values
@@ -38,8 +41,8 @@ fn main() -> anyhow::Result<()> {
         let p = rec.position;
         let mut rng = sism::sampling::Rng::new(1, 2);
         let strata = sism::sampling::Strata::new(4096);
-        let (at_p, _) = sism::reference::receiver_visibility(&bvh, &scene.light, &rec, &strata, &mut rng);
-        let topo = &prepared.topology;
+        let (at_p, _) =
+            sism::algorithms::reference::receiver_visibility(&bvh, &scene.light, &rec, &strata, &mut rng);
         let to_light = c - p;
         let umbra = (0..topo.triangles.len())
             .filter(|&t| topo.counts(t, c))

@@ -2,8 +2,10 @@
 //! view (buffers freed by one frame are reused by the next) for profiling, e.g.
 //! `perf record -g target/release/examples/frame_loop scenes/plate.toml 1600 1200 10`.
 
+use sism::algorithms::sism::{render_scene, Composition, SismOptions};
+use sism::exec::Exec;
+use sism::scene::topology::SceneTopology;
 use sism::scene::Scene;
-use sism::sism::{render_frame, Composition, PreparedScene, SismOptions};
 
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -26,24 +28,19 @@ fn main() -> anyhow::Result<()> {
         Some("sampled") => Composition::Sampled,
         Some(other) => anyhow::bail!("unknown composition {other}"),
     };
-    let prepared = PreparedScene::new(&scene);
+    let topo = SceneTopology::build(&scene);
     let options = SismOptions {
         composition,
         ..Default::default()
     };
     for k in 0..frames {
-        let t = render_frame(&scene, &prepared, &options).stats.times;
+        let frame = render_scene(&scene, &topo, &options, Exec::Native);
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-        println!(
-            "frame {k}: eye {:.1} | grid {:.1} | umbra {:.1} | silhouettes {:.1} | penumbra {:.1} | resolve {:.1} | total {:.1} ms",
-            ms(t.eye_pass),
-            ms(t.grid),
-            ms(t.umbra),
-            ms(t.silhouettes),
-            ms(t.penumbra),
-            ms(t.resolve),
-            ms(t.total())
-        );
+        let mut line = format!("frame {k}:");
+        for t in frame.log.times() {
+            line += &format!(" {} {:.1} |", t.name, ms(t.host));
+        }
+        println!("{line} total {:.1} ms", ms(frame.log.total()));
     }
     Ok(())
 }

@@ -1,174 +1,160 @@
-//! One render from a scene to the CONTRACTS.md outputs: the algorithm runs, then the images and
-//! counters are written. The CLI and the tests both go through here.
+//! One render, whatever the algorithm: prepare the scene, find the receivers of every pixel (the
+//! algorithm's [`ReceiverSource`]), run the algorithm, and gather its image, statistics and task
+//! records; then, on request, time the records on a modelled machine, and write the CONTRACTS.md
+//! outputs. The CLI, the benches and the tests all go through here.
 
 use std::path::Path;
 use std::time::Instant;
 
-use crate::bvh::SceneBvh;
-use crate::frame::{Receivers, VisibilityImage};
-use crate::output::stats::StatsReport;
+use crate::algorithms::{self, Algorithm, FrameInputs, Params, PreparedScene, ReceiverSource};
+use crate::exec::{Exec, FrameLog, PhaseRecords};
+use crate::frame::{Receivers, VisibilityImage, V_FACING_AWAY};
+use crate::machine::{self, MachineConfig, MachineReport};
 use crate::output::{pfm, pictures};
-use crate::reference::{self, ReferenceOptions};
+use crate::raster::eye;
 use crate::scene::Scene;
-use crate::sism;
+use crate::stats::StatsReport;
 
-/// The visibility algorithms sism can run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Algorithm {
-    /// Ray-traced reference: stratified light-disk samples, one shadow ray each.
-    Reference,
-    /// Soft irregular shadow mapping (Johnson et al. 2009) on the 16-wide kernels, run natively, with
-    /// the paper's additive composition (Eq. 4, C = 0).
-    Sism,
-    /// SISM with connected components composed as independent occluders instead of added.
-    SismIndependent,
-    /// SISM with occluders counted at 64 points of each receiver's light disk: overlaps compose
-    /// exactly instead of being added (no C = 0 darkening), at several times the penumbra cost.
-    SismSampled,
-    /// Ray-traced SISM model without its projection approximation: occluders' coverages added as if
-    /// they never overlapped (the paper's C = 0). For attributing SISM's error.
-    ReferenceAdditive,
-}
-
-impl Algorithm {
-    /// The name used on the command line and in statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Algorithm::Reference => "reference",
-            Algorithm::Sism => "sism",
-            Algorithm::SismIndependent => "sism-independent",
-            Algorithm::SismSampled => "sism-sampled",
-            Algorithm::ReferenceAdditive => "reference-additive",
-        }
-    }
-
-    /// The SISM composition this algorithm runs, `None` for the ray-traced ones.
-    pub fn composition(self) -> Option<sism::Composition> {
-        match self {
-            Algorithm::Sism => Some(sism::Composition::Additive),
-            Algorithm::SismIndependent => Some(sism::Composition::Independent),
-            Algorithm::SismSampled => Some(sism::Composition::Sampled),
-            Algorithm::Reference | Algorithm::ReferenceAdditive => None,
-        }
-    }
+/// How to render.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderOptions {
+    /// Native kernels (default) or counted, with task records for the machine model.
+    pub exec: Exec,
+    /// Progress bars for long work on stderr (hidden anyway when stderr is not a terminal).
+    pub progress: bool,
 }
 
 /// Everything one render produced.
 pub struct RenderResult {
     pub receivers: Receivers,
     pub visibility: VisibilityImage,
+    /// Facts about the run and every counter (algorithm, eye pass, host times).
     pub stats: StatsReport,
+    /// Every step's task records under [`Exec::Counting`]; empty natively.
+    pub records: Vec<PhaseRecords>,
 }
 
-/// Runs `algorithm` on `scene`. `reference_options` sets the reference's samples and seed.
-pub fn render(scene: &Scene, algorithm: Algorithm, reference_options: &ReferenceOptions) -> RenderResult {
+/// Renders `scene` with `algorithm` (its `params` resolved against its declarations), preparing the
+/// per-scene data fresh (its build time counts in `time.total`).
+pub fn render(
+    scene: &Scene,
+    algorithm: &Algorithm,
+    params: &Params,
+    options: &RenderOptions,
+) -> RenderResult {
+    render_prepared(&PreparedScene::new(scene), algorithm, params, options)
+}
+
+/// [`render`] with per-scene data kept across frames in `prepared`.
+pub fn render_prepared(
+    prepared: &PreparedScene<'_>,
+    algorithm: &Algorithm,
+    params: &Params,
+    options: &RenderOptions,
+) -> RenderResult {
+    let scene = prepared.scene;
+    let t0 = Instant::now();
+    let built_topology = prepared.topology_time().is_none();
+    let built_bvh = prepared.bvh_time().is_none();
+    // Counted frames hold frees: with `LineAlloc` as the global allocator no address is reused within
+    // the frame, so its records (and the simulated cycles) are the same in every run and for any host
+    // thread count.
+    let _hold = (options.exec == Exec::Counting).then(sism_simd::HoldFrees::new);
+    let mut log = FrameLog::new(options.exec);
     let mut stats = StatsReport::default();
     stats
         .fact("scene", scene.source.display())
-        .fact("algorithm", algorithm.name())
+        .fact("algorithm", algorithm.name)
+        .fact("params", params.describe())
         .fact("width", scene.camera.width)
         .fact("height", scene.camera.height)
-        .fact("host_threads", rayon::current_num_threads());
-    stats.stat(
-        "scene.triangles",
-        scene.triangle_count() as f64,
-        "triangles",
-        "triangles in the scene",
-    );
-    stats.stat(
-        "scene.light_radius",
-        scene.light.radius as f64,
-        "world units",
-        "light radius (0 = point light)",
-    );
+        .fact("host_threads", rayon::current_num_threads())
+        .fact(
+            "simd_backend",
+            match options.exec {
+                Exec::Native => sism_simd::selected_backend().name(),
+                Exec::Counting => "counting",
+            },
+        );
+    stats
+        .stat(
+            "scene.triangles",
+            scene.triangle_count() as f64,
+            "triangles",
+            "triangles in the scene",
+        )
+        .stat(
+            "scene.light_radius",
+            scene.light.radius as f64,
+            "world_units",
+            "light radius (0 = point light)",
+        );
 
-    let t0 = Instant::now();
-    let (receivers, visibility) = match algorithm {
-        Algorithm::Sism | Algorithm::SismIndependent | Algorithm::SismSampled => {
-            let prepared = sism::PreparedScene::new(scene);
-            let options = sism::SismOptions {
-                composition: algorithm.composition().unwrap_or_default(),
-                ..Default::default()
-            };
-            let frame = sism::render_frame(scene, &prepared, &options);
-            stats
-                .fact("simd_backend", format!("{:?}", sism_simd::selected_backend()))
-                .stat(
-                    "time.prepare_scene",
-                    prepared.build_time.as_secs_f64() * 1e3,
-                    "ms",
-                    "edge adjacency, built once per scene and reused across frames (host wall time)",
-                );
-            sism::report(&frame.stats, &mut stats);
-            (frame.receivers, frame.visibility)
+    let receivers = match algorithm.receivers {
+        ReceiverSource::Raster => {
+            let out = log.phase("eye_pass", "eye pass: receivers of every pixel", |p| {
+                eye::eye_pass(p, scene)
+            });
+            out.stat_rows(&mut stats);
+            out.receivers
         }
-        Algorithm::Reference | Algorithm::ReferenceAdditive => {
-            let bvh = SceneBvh::build(scene);
-            let time_bvh = t0.elapsed();
-            let mut options = *reference_options;
-            if algorithm == Algorithm::ReferenceAdditive {
-                options.mode = reference::ReferenceMode::AdditiveOverlap;
-            }
-            let (receivers, visibility, s) = reference::render(scene, &bvh, &options);
-            let shadow_s = s.time_shadow.as_secs_f64();
-            stats
-                .fact("seed", reference_options.seed)
-                .stat(
-                    "reference.spp",
-                    reference_options.spp as f64,
-                    "samples",
-                    "light-disk samples per receiver",
-                )
-                .stat(
-                    "time.bvh_build",
-                    time_bvh.as_secs_f64() * 1e3,
-                    "ms",
-                    "CWBVH build (host wall time)",
-                )
-                .stat(
-                    "time.primary",
-                    s.time_primary.as_secs_f64() * 1e3,
-                    "ms",
-                    "primary ray casting (host wall time)",
-                )
-                .stat(
-                    "time.shadow",
-                    shadow_s * 1e3,
-                    "ms",
-                    "shadow rays (host wall time)",
-                )
-                .stat(
-                    "rays.primary",
-                    s.primary_rays as f64,
-                    "rays",
-                    "primary rays, one per pixel",
-                )
-                .stat(
-                    "receivers",
-                    s.receivers as f64,
-                    "pixels",
-                    "pixels whose eye ray hits a surface",
-                )
-                .stat(
-                    "receivers.facing_away",
-                    s.receivers_facing_away as f64,
-                    "pixels",
-                    "receivers facing away from the light (V = -1, no shadow rays)",
-                )
-                .stat("rays.shadow", s.shadow_rays as f64, "rays", "shadow rays cast")
-                .stat(
-                    "rays.shadow_per_second",
-                    if shadow_s > 0.0 {
-                        s.shadow_rays as f64 / shadow_s
-                    } else {
-                        0.0
-                    },
-                    "rays/s",
-                    "shadow-ray throughput on this host",
-                );
-            (receivers, visibility)
+        ReceiverSource::RayCast => {
+            let bvh = log.phase("bvh_build", "CWBVH build", |_| prepared.bvh());
+            let receivers = log.phase("primary", "primary ray casting", |_| {
+                algorithms::reference::cast_primary_rays(scene, bvh)
+            });
+            stats.stat(
+                "rays.primary",
+                receivers.pixels.len() as f64,
+                "rays",
+                "primary rays, one per pixel",
+            );
+            receivers
         }
     };
+    let inputs = FrameInputs {
+        prepared,
+        receivers: &receivers,
+        progress: options.progress,
+    };
+    let frame = (algorithm.run)(&inputs, params, &mut log);
+    let visibility = frame.visibility;
+    stats
+        .stat(
+            "receivers",
+            receivers.pixels.iter().filter(|r| r.is_some()).count() as f64,
+            "pixels",
+            "pixels whose eye ray hits a surface",
+        )
+        .stat(
+            "receivers.facing_away",
+            visibility.values.iter().filter(|&&v| v == V_FACING_AWAY).count() as f64,
+            "pixels",
+            "receivers facing away from the light (V = -1, no shadow work)",
+        );
+    stats.stats.extend(frame.stats.stats);
+    stats.facts.extend(frame.stats.facts);
+    log.time_rows(&mut stats);
+    if built_topology {
+        if let Some(t) = prepared.topology_time() {
+            stats.stat(
+                "time.prepare_scene",
+                t.as_secs_f64() * 1e3,
+                "ms",
+                "edge adjacency, built once per scene and reused across frames (host wall time)",
+            );
+        }
+    }
+    if built_bvh && prepared.bvh_time().is_some() && algorithm.receivers != ReceiverSource::RayCast {
+        let t = prepared.bvh_time().expect("checked");
+        stats.stat(
+            "time.bvh_build",
+            t.as_secs_f64() * 1e3,
+            "ms",
+            "CWBVH build (host wall time)",
+        );
+    }
+    log.untimed_rows(&mut stats);
     stats.stat(
         "time.total",
         t0.elapsed().as_secs_f64() * 1e3,
@@ -179,6 +165,63 @@ pub fn render(scene: &Scene, algorithm: Algorithm, reference_options: &Reference
         receivers,
         visibility,
         stats,
+        records: log.take_records(),
+    }
+}
+
+/// A render timed on a modelled machine: counted, then its records replayed.
+pub struct MachineRender {
+    pub result: RenderResult,
+    pub report: MachineReport,
+    /// Host seconds of the counted render and of the replay.
+    pub render_seconds: f64,
+    pub simulate_seconds: f64,
+}
+
+/// Renders `scene` with `algorithm` under [`Exec::Counting`] (same image, bit for bit), then times its
+/// records on `config`; the stats gain `machine.*` rows. The algorithm must run on the kernels
+/// ([`Algorithm::kernels`]); a ray-traced one has nothing for the machine to time.
+pub fn render_on_machine(
+    scene: &Scene,
+    algorithm: &Algorithm,
+    params: &Params,
+    config: &MachineConfig,
+    progress: bool,
+) -> MachineRender {
+    let t0 = Instant::now();
+    let mut result = render(
+        scene,
+        algorithm,
+        params,
+        &RenderOptions {
+            exec: Exec::Counting,
+            progress,
+        },
+    );
+    let render_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let report = machine::simulate(&result.records, config);
+    let simulate_seconds = t1.elapsed().as_secs_f64();
+    result
+        .stats
+        .stat(
+            "time.counting_render",
+            render_seconds * 1e3,
+            "ms",
+            "the frame under the counting context, recording tasks (host wall time)",
+        )
+        .stat(
+            "time.machine_simulation",
+            simulate_seconds * 1e3,
+            "ms",
+            "replaying the records on the machine model (host wall time)",
+        );
+    report.add_to(&mut result.stats);
+    MachineRender {
+        result,
+        report,
+        render_seconds,
+        simulate_seconds,
     }
 }
 

@@ -1,9 +1,13 @@
-//! `sism bench`: the library entry point on the plate at a tiny size, and the CLI's errors.
+//! `sism bench`: the library's measurement and the command's files on the plate at a tiny size, and
+//! the CLI's errors.
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use sism::bench_cmd::{self, BenchOptions, CSV_HEADER, PLOT_SIZE};
+use sism::bench::{self, CSV_HEADER};
+
+/// Size of the plots the commands draw, pixels.
+const PLOT_SIZE: (u32, u32) = (1000, 700);
 
 fn plate() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plate.toml")
@@ -30,19 +34,33 @@ fn assert_clean_failure(out: &Output, needles: &[&str]) {
 #[test]
 fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("bench");
-    let options = BenchOptions {
-        out: out.clone(),
-        spp_list: vec![16, 4],
-        truth_spp: 256,
-        truth: None,
-        width: Some(64),
-        height: Some(48),
-        repeats: 1,
-        progress: false,
+    let plate = plate();
+    let plate = plate.to_str().unwrap();
+    let args = |out: &str, extra: &[&str]| {
+        let mut a = vec![
+            "bench",
+            plate,
+            "--out",
+            out,
+            "--quiet",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--repeats",
+            "1",
+        ];
+        a.extend_from_slice(extra);
+        a.iter().map(|s| s.to_string()).collect::<Vec<_>>()
     };
-    let report = bench_cmd::bench(&plate(), &options).unwrap();
-    assert_eq!((report.width, report.height), (64, 48));
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = sism(dir.path(), &a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        o
+    };
+    run(args("bench", &["--spp-list", "16,4", "--truth-spp", "256"]));
+    let out = dir.path().join("bench");
 
     // CSV: the header, the reference's sweep in ascending spp, then the three SISM compositions.
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
@@ -74,14 +92,9 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
         "MAE must fall with spp:\n{csv}"
     );
     assert!(value(1, "rmse") < value(0, "rmse"), "{csv}");
-    assert!(value(2, "mae") < 0.01, "sism MAE on the plate:\n{csv}");
-    assert!(
-        value(3, "mae") < 0.01,
-        "sism-independent MAE on the plate:\n{csv}"
-    );
-    assert!(value(4, "mae") < 0.01, "sism-sampled MAE on the plate:\n{csv}");
-    // The report and the CSV agree.
-    assert!((report.rows[2].error.mae - value(2, "mae")).abs() < 1e-6);
+    for (row, name) in [(2, "sism"), (3, "sism-independent"), (4, "sism-sampled")] {
+        assert!(value(row, "mae") < 0.01, "{name} MAE on the plate:\n{csv}");
+    }
 
     // JSON parses and carries the rows and the truth's settings.
     let json: serde_json::Value =
@@ -89,6 +102,7 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     assert_eq!(json["rows"].as_array().unwrap().len(), 5);
     assert_eq!(json["truth"]["spp"], 256);
     assert_eq!(json["rows"][0]["times_ms"].as_array().unwrap().len(), 1);
+    assert!((json["rows"][2]["error"]["mae"].as_f64().unwrap() - value(2, "mae")).abs() < 1e-6);
 
     // The plot decodes at its size; the truth's images are there.
     let png = image::open(out.join("bench.png")).expect("bench.png decodes");
@@ -98,16 +112,44 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     }
 
     // --truth: the same truth from its PFM gives the same errors without rendering it again.
-    let options = BenchOptions {
-        out: dir.path().join("again"),
-        spp_list: vec![4],
-        truth: Some(out.join("truth/visibility.pfm")),
-        ..options
+    let truth = out.join("truth/visibility.pfm");
+    run(args(
+        "again",
+        &["--spp-list", "4", "--truth", truth.to_str().unwrap()],
+    ));
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("again/bench.json")).unwrap()).unwrap();
+    assert!(again["truth"]["spp"].is_null());
+    assert_eq!(again["rows"].as_array().unwrap().len(), 4); // one reference setting, three SISM
+    assert_eq!(again["rows"][0]["error"]["mae"], json["rows"][0]["error"]["mae"]);
+}
+
+#[test]
+fn library_bench_measures_every_candidate_against_one_truth() {
+    let mut scene = sism::scene::Scene::load(&plate()).unwrap();
+    scene.camera.width = 48;
+    scene.camera.height = 36;
+    let candidates = bench::candidates(&[("spp", vec!["4".into()])]).unwrap();
+    let (truth, info) = bench::render_truth(&scene, 64, false).unwrap();
+    let report = bench::bench_scene(&scene, &candidates, &truth.visibility, info, 2, false).unwrap();
+    assert_eq!(report.rows.len(), candidates.len());
+    for r in &report.rows {
+        assert_eq!(r.times_ms.len(), 2);
+        assert!(r.median_ms > 0.0 && r.error.compared > 500, "{r:?}");
+    }
+    assert_eq!(report.rows[0].params, "spp=4 seed=0");
+    // A truth of another size is an error naming both sizes.
+    let small = sism::frame::VisibilityImage::filled(8, 8, 1.0);
+    let info = bench::TruthInfo {
+        spp: None,
+        seed: None,
+        file: None,
+        time_ms: None,
     };
-    let again = bench_cmd::bench(&plate(), &options).unwrap();
-    assert_eq!(again.truth.spp, None);
-    assert_eq!(again.rows.len(), 4); // one reference setting and the three SISM compositions
-    assert_eq!(again.rows[0].error.mae, report.rows[0].error.mae);
+    let e = bench::bench_scene(&scene, &candidates, &small, info, 1, false)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("8x8") && e.contains("48x36"), "{e}");
 }
 
 #[test]
@@ -115,19 +157,22 @@ fn truth_of_another_size_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     let truth = dir.path().join("truth.pfm");
     sism::output::pfm::write_pfm(&truth, &sism::frame::VisibilityImage::filled(8, 8, 1.0)).unwrap();
-    let options = BenchOptions {
-        out: dir.path().join("bench"),
-        truth: Some(truth),
-        width: Some(16),
-        height: Some(12),
-        progress: false,
-        ..BenchOptions::default()
-    };
-    let e = format!("{:#}", bench_cmd::bench(&plate(), &options).unwrap_err());
-    assert!(
-        e.contains("--truth") && e.contains("8x8") && e.contains("16x12"),
-        "{e}"
+    let plate = plate();
+    let out = sism(
+        dir.path(),
+        &[
+            "bench",
+            plate.to_str().unwrap(),
+            "--quiet",
+            "--truth",
+            truth.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "12",
+        ],
     );
+    assert_clean_failure(&out, &["--truth", "8x8", "16x12"]);
 }
 
 #[test]

@@ -4,11 +4,12 @@
 
 use std::path::Path;
 
+use sism::exec::{Exec, PhaseRecords};
 use sism::machine::cache::Cache;
 use sism::machine::timing::{compute_cost, Machine, MemoryCounts};
 use sism::machine::{load_records, save_records, simulate, MachineConfig};
+use sism::render::{render, RenderOptions};
 use sism::scene::Scene;
-use sism::sism::{render_frame, Composition, Exec, PhaseRecords, PreparedScene, SismOptions};
 use sism_simd::{Counters, TaskRecord};
 
 // Line-aligned blocks, no address reuse within a counted frame: counted records are repeatable.
@@ -103,13 +104,22 @@ fn load(name: &str, width: u32, height: u32) -> Scene {
     s
 }
 
+fn counted(scene: &Scene, algorithm: &str, exec: Exec) -> sism::render::RenderResult {
+    let algo = sism::algorithms::find(algorithm).unwrap();
+    let params = algo.params(&[]).unwrap();
+    render(
+        scene,
+        algo,
+        &params,
+        &RenderOptions {
+            exec,
+            progress: false,
+        },
+    )
+}
+
 fn counted_records(scene: &Scene) -> Vec<PhaseRecords> {
-    let options = SismOptions {
-        exec: Exec::Counting,
-        composition: Composition::Additive,
-        ..Default::default()
-    };
-    sism::machine::counted_frame(scene, &PreparedScene::new(scene), &options).records
+    counted(scene, "sism", Exec::Counting).records
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -317,8 +327,37 @@ fn deterministic_and_address_independent() {
 fn plate_on_larrabee_24_and_replay() {
     let scene = load("plate.toml", 160, 120);
     let records = counted_records(&scene);
+    // Every phase of the frame is timed, step by step (the plate's receivers need a cube of faces).
     let names: Vec<&str> = records.iter().map(|p| p.phase.as_str()).collect();
-    assert_eq!(names, ["eye_pass", "grid", "umbra", "penumbra", "resolve"]);
+    assert_eq!(
+        names,
+        [
+            "eye_pass.front_end",
+            "eye_pass.tile_lists",
+            "eye_pass.tiles",
+            "light_samples.classify",
+            "light_samples.fit",
+            "light_samples.cone",
+            "light_samples.faces",
+            "light_samples.face_sort",
+            "light_samples.project",
+            "grid.face_bounds",
+            "grid.classify",
+            "grid.scatter",
+            "grid.cell_sort",
+            "grid.gather",
+            "grid.bins",
+            "umbra.bin",
+            "umbra.lists",
+            "umbra.depth",
+            "silhouettes",
+            "penumbra.bin",
+            "penumbra.lists",
+            "penumbra.eq3",
+            "resolve.eq4",
+            "resolve.scatter",
+        ]
+    );
     let m = MachineConfig::preset("larrabee-24").unwrap();
     let r = simulate(&records, &m);
     for p in &r.phases {
@@ -326,8 +365,34 @@ fn plate_on_larrabee_24_and_replay() {
         assert_eq!(p.stack.total(), p.cycles);
         assert!(p.lane_utilisation() > 0.0 && p.lane_utilisation() <= 1.0);
     }
+    let groups: Vec<&str> = r.groups.iter().map(|g| g.phase.as_str()).collect();
+    assert_eq!(
+        groups,
+        [
+            "eye_pass",
+            "light_samples",
+            "grid",
+            "umbra",
+            "silhouettes",
+            "penumbra",
+            "resolve"
+        ]
+    );
+    let steps: u64 = r.phases.iter().map(|p| p.cycles).sum();
+    assert_eq!(r.groups.iter().map(|g| g.cycles).sum::<u64>(), steps);
+    assert_eq!(r.frame.cycles, steps);
+    // Nothing the frame does is left untimed.
+    let full = counted(&scene, "sism", Exec::Counting);
+    assert!(
+        !full
+            .stats
+            .stats
+            .iter()
+            .any(|s| s.name.starts_with("machine.untimed.")),
+        "untimed phases"
+    );
     // Counters land in the stats report.
-    let mut stats = sism::output::stats::StatsReport::default();
+    let mut stats = sism::stats::StatsReport::default();
     r.add_to(&mut stats);
     assert!(stats.get("machine.umbra.ms").unwrap() > 0.0);
     assert!(stats.get("machine.frame.ms").unwrap() > 0.0);
@@ -394,21 +459,16 @@ fn counted_frames_repeat_exactly_for_any_thread_count() {
 #[test]
 fn native_and_counting_visibility_identical() {
     let scene = load("plate.toml", 160, 120);
-    let prepared = PreparedScene::new(&scene);
-    for composition in [Composition::Additive, Composition::Independent] {
-        let run = |exec| {
-            let options = SismOptions {
-                exec,
-                composition,
-                ..Default::default()
-            };
-            render_frame(&scene, &prepared, &options)
-        };
-        let native = run(Exec::Native);
-        let counted = run(Exec::Counting);
+    for algorithm in ["sism", "sism-independent", "sism-sampled"] {
+        let native = counted(&scene, algorithm, Exec::Native);
+        let counted = counted(&scene, algorithm, Exec::Counting);
         assert!(native.records.is_empty() && !counted.records.is_empty());
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&native.visibility.values), bits(&counted.visibility.values));
+        assert_eq!(
+            bits(&native.visibility.values),
+            bits(&counted.visibility.values),
+            "{algorithm}"
+        );
     }
 }
 

@@ -3,7 +3,7 @@
 //! adversarial edge/sample configurations (no NaN/∞, per-edge bounds, f32 vs the f64 oracle,
 //! vector == scalar bit for bit on every backend, native == counting).
 
-use sism::sism::occlusion::{
+use sism::algorithms::sism::occlusion::{
     edge_term, edge_term_f64, edge_term_scalar, penumbra_half_width, triangle_coverage_f32,
     triangle_coverage_f64, umbra_indicator_f64, EdgeRecord, EdgeRecordF64, H_MIN_FRACTION,
 };

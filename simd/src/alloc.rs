@@ -67,6 +67,11 @@ fn inner_layout(l: Layout) -> Layout {
     Layout::from_size_align(size, align).expect("valid layout")
 }
 
+// SAFETY: every method forwards to the inner allocator with `inner_layout(layout)`, a function of the
+// caller's layout alone, so each block is freed or reallocated with the layout it was allocated
+// with, as `GlobalAlloc` requires of the inner allocator. Blocks are at least as large and as aligned
+// as the caller asked (`inner_layout` only grows size and alignment), and a held block is never
+// handed out again until it is freed to the inner allocator: no two live allocations overlap.
 unsafe impl<A: GlobalAlloc> GlobalAlloc for LineAlloc<A> {
     #[inline]
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {

@@ -646,6 +646,20 @@ impl<B: Simd> Simd for Counting<'_, B> {
     fn scalar_ops(self, n: u64) {
         self.rec.with(|st| st.c.scalar += n)
     }
+    #[inline(always)]
+    fn scalar_touch(self, addr: usize, bytes: usize, write: bool) {
+        if bytes == 0 {
+            return;
+        }
+        let (l0, l1) = (line_of(addr), line_of(addr + bytes - 1));
+        self.rec.with(|st| {
+            if st.record_lines {
+                for l in l0..=l1 {
+                    st.enc.push(l, write);
+                }
+            }
+        })
+    }
 }
 
 impl<B: Simd> Counting<'_, B> {

@@ -308,7 +308,14 @@ impl Heads {
         let s = if delta.unsigned_abs() <= NEAR {
             slot
         } else {
-            (0..SLOTS).min_by_key(|&i| self.stamp[i]).unwrap()
+            // The least recently updated slot (ties to the lowest); SLOTS > 0, so there is one.
+            let mut oldest = 0;
+            for i in 1..SLOTS {
+                if self.stamp[i] < self.stamp[oldest] {
+                    oldest = i;
+                }
+            }
+            oldest
         };
         self.t += 1;
         self.line[s] = line;

@@ -448,6 +448,23 @@ pub trait Simd: Copy {
     fn scalar_ops(self, n: u64) {
         let _ = n;
     }
+    /// Report that scalar code of the kernel read (`write == false`) or wrote the `bytes` bytes
+    /// starting at address `addr`: a counting context appends their 64-byte lines to the task's
+    /// line stream, so the machine model's caches see scalar work's memory traffic too.
+    #[inline(always)]
+    fn scalar_touch(self, addr: usize, bytes: usize, write: bool) {
+        let _ = (addr, bytes, write);
+    }
+    /// [`Simd::scalar_touch`] of the memory of `data`, read.
+    #[inline(always)]
+    fn scalar_read<T>(self, data: &[T]) {
+        self.scalar_touch(data.as_ptr() as usize, core::mem::size_of_val(data), false);
+    }
+    /// [`Simd::scalar_touch`] of the memory of `data`, written.
+    #[inline(always)]
+    fn scalar_write<T>(self, data: &[T]) {
+        self.scalar_touch(data.as_ptr() as usize, core::mem::size_of_val(data), true);
+    }
 
     // ==================================================================
     // Derived operations (provided; never overridden by backends)

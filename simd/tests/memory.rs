@@ -489,6 +489,48 @@ fn counting_records_memory() {
     assert!(lines.last().unwrap().1, "fetch-add recorded as a write");
 }
 
+#[test]
+fn scalar_touches_join_the_line_stream_and_cost_nothing_natively() {
+    struct K<'a>(&'a [u64], &'a mut [u64]);
+    impl sism_simd::Kernel for K<'_> {
+        type Output = u64;
+        #[inline(always)]
+        fn run<S: Simd>(self, s: S) -> u64 {
+            s.begin_task(3);
+            // Scalar code streaming 20 u64 (160 bytes over 3 lines), then one store.
+            s.scalar_read(&self.0[..20]);
+            let sum = self.0[..20].iter().sum();
+            self.1[0] = sum;
+            s.scalar_write(&self.1[..1]);
+            s.scalar_read::<u64>(&[]);
+            s.end_task();
+            sum
+        }
+    }
+    #[repr(C, align(64))]
+    struct A([u64; 24]);
+    let a = A([2; 24]);
+    let mut b = A([0; 24]);
+    assert_eq!(sism_simd::run_native(K(&a.0, &mut b.0)), 40);
+    let rec = Recorder::new();
+    assert_eq!(sism_simd::run_counting(&rec, K(&a.0, &mut b.0)), 40);
+    let t = rec.take_tasks();
+    let lines: Vec<(u64, bool)> = t[0].lines.iter().collect();
+    let first = a.0.as_ptr() as u64 >> 6;
+    let out = b.0.as_ptr() as u64 >> 6;
+    assert_eq!(
+        lines,
+        [
+            (first, false),
+            (first + 1, false),
+            (first + 2, false),
+            (out, true)
+        ]
+    );
+    // Scalar touches are memory traffic, not instructions.
+    assert_eq!(t[0].counters.instructions(), 0);
+}
+
 proptest! {
     /// Gathers and scatters record, per instruction, the active lanes' lines in lane order (without
     /// consecutive repeats) and count their distinct lines, whether the indices come sorted (the

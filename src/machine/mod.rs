@@ -1,14 +1,17 @@
 //! The many-core machine model: replays the counting context's per-task records
-//! ([`crate::sism::PhaseRecords`]) on a configurable Larrabee-style chip ([`MachineConfig`]) and
-//! reports simulated cycles, milliseconds, cycle stacks, lane utilisation and cache behaviour per
-//! phase and per frame. See [`timing`] for the model's rules and [`cache`] for the caches.
+//! ([`PhaseRecords`], one per barrier-separated step of a frame) on a configurable Larrabee-style
+//! chip ([`MachineConfig`]) and reports simulated cycles, milliseconds, cycle stacks, lane utilisation
+//! and cache behaviour per step, per phase (the steps' group, e.g. `grid` for `grid.classify`) and
+//! per frame. See [`timing`] for the model's rules and [`cache`] for the caches.
 //!
-//! Records can be saved to a file ([`save_records`]) and re-timed under another configuration
-//! without re-running kernels ([`load_records`], `sism replay`).
+//! The model depends on the records and its configuration only, never on the renderer: records can
+//! be saved to a file ([`save_records`]) and re-timed under another configuration without re-running
+//! kernels ([`load_records`], `sism replay`), and a sweep ([`sweep`]) re-times one frame's records on
+//! many machines.
 
 pub mod cache;
 pub mod config;
-pub mod run;
+pub mod sweep;
 pub mod timing;
 
 use std::io::{Read, Write};
@@ -17,31 +20,20 @@ use std::path::Path;
 pub use config::MachineConfig;
 pub use timing::{CycleStack, MemoryCounts, PhaseReport};
 
-use crate::output::stats::StatsReport;
-use crate::sism::PhaseRecords;
+use crate::exec::{group_of, PhaseRecords};
+use crate::stats::StatsReport;
 
 /// A frame timed on a machine.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MachineReport {
     /// The configuration used.
     pub config: MachineConfig,
-    /// One report per phase, in frame order.
+    /// One report per step, in frame order (names `phase.step`, or `phase` for a one-step phase).
     pub phases: Vec<PhaseReport>,
-    /// The frame's totals (sum of the phases).
+    /// One report per phase: its steps summed (named by the phase), in frame order.
+    pub groups: Vec<PhaseReport>,
+    /// The frame's totals (sum of the steps).
     pub frame: PhaseReport,
-}
-
-/// Renders one frame with `options` (whose `exec` should be [`crate::sism::Exec::Counting`]) while
-/// holding frees ([`sism_simd::HoldFrees`]): with [`sism_simd::LineAlloc`] as the global allocator
-/// (the `sism` binary, the machine tests and bench) no address is reused within the frame, so its
-/// records, and the simulated cycles, are the same in every run and for any host thread count.
-pub fn counted_frame(
-    scene: &crate::scene::Scene,
-    prepared: &crate::sism::PreparedScene,
-    options: &crate::sism::SismOptions,
-) -> crate::sism::SismFrame {
-    let _hold = sism_simd::HoldFrees::new();
-    crate::sism::render_frame(scene, prepared, options)
 }
 
 /// Times the frame whose records are `records` on `config`. Deterministic: a function of the records
@@ -50,21 +42,38 @@ pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineRepo
     let named: Vec<(&str, &[sism_simd::TaskRecord])> =
         records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect();
     let phases = timing::simulate_frame(config, &named);
+    let mut groups: Vec<PhaseReport> = Vec::new();
+    for p in &phases {
+        let g = group_of(&p.phase);
+        match groups.last_mut() {
+            Some(last) if last.phase == g => timing::add_phase(last, p),
+            _ => {
+                let mut first = timing::frame_total(std::slice::from_ref(p), config);
+                first.phase = g.to_string();
+                groups.push(first);
+            }
+        }
+    }
+    for g in &mut groups {
+        g.ms = config.ms(g.cycles);
+    }
     let frame = timing::frame_total(&phases, config);
     MachineReport {
         config: config.clone(),
         phases,
+        groups,
         frame,
     }
 }
 
 impl MachineReport {
-    /// The phase named `name`.
+    /// The phase (a group of steps) or step named `name`.
     pub fn phase(&self, name: &str) -> Option<&PhaseReport> {
-        self.phases.iter().find(|p| p.phase == name)
+        self.groups.iter().chain(&self.phases).find(|p| p.phase == name)
     }
 
-    /// Adds `machine.<phase>.*` and `machine.frame.*` counters (cycles, ms, the cycle stack, lane
+    /// Adds `machine.<phase>.*` (per phase: the group of its steps), `machine.<phase>.<step>.*` (per
+    /// step of a phase of several) and `machine.frame.*` counters (cycles, ms, the cycle stack, lane
     /// utilisation, miss rates, bytes moved) and the machine's facts.
     pub fn add_to(&self, stats: &mut StatsReport) {
         let c = &self.config;
@@ -72,11 +81,19 @@ impl MachineReport {
             .fact("machine", &c.name)
             .fact("machine.cores", c.cores)
             .fact("machine.clock_ghz", c.clock_ghz);
-        for p in self.phases.iter().chain(std::iter::once(&self.frame)) {
+        let steps = self.phases.iter().filter(|p| p.phase.contains('.'));
+        for p in self
+            .groups
+            .iter()
+            .chain(steps)
+            .chain(std::iter::once(&self.frame))
+        {
             let name = &p.phase;
             let key = |k: &str| format!("machine.{name}.{k}");
             let what = if name == "frame" {
                 "whole frame".to_string()
+            } else if name.contains('.') {
+                format!("step {name}")
             } else {
                 format!("phase {name}")
             };
@@ -85,7 +102,7 @@ impl MachineReport {
                     &key("cycles"),
                     p.cycles as f64,
                     "cycles",
-                    &format!("{what}: simulated core cycles, including the barrier"),
+                    &format!("{what}: simulated core cycles, including the barriers"),
                 )
                 .stat(
                     &key("ms"),
@@ -160,10 +177,11 @@ impl MachineReport {
         }
     }
 
-    /// A short human-readable table: per phase ms, share and stack.
+    /// A short human-readable table: per phase (and, indented, per step of a phase of several) ms,
+    /// share of the frame, cycle stack and lane utilisation.
     pub fn to_table(&self) -> String {
         let mut s = format!(
-            "{} ({} cores, {} threads/core, {} GHz)\n{:<12} {:>10} {:>7} {:>12} {:>12} {:>12} {:>12} {:>6}\n",
+            "{} ({} cores, {} threads/core, {} GHz)\n{:<24} {:>10} {:>7} {:>12} {:>12} {:>12} {:>12} {:>6}\n",
             self.config.name,
             self.config.cores,
             self.config.threads_per_core,
@@ -177,10 +195,10 @@ impl MachineReport {
             "imbal+idle",
             "lanes"
         );
-        for p in self.phases.iter().chain(std::iter::once(&self.frame)) {
-            s += &format!(
-                "{:<12} {:>10.3} {:>6.1}% {:>12} {:>12} {:>12} {:>12} {:>5.0}%\n",
-                p.phase,
+        let row = |label: &str, p: &PhaseReport| {
+            format!(
+                "{:<24} {:>10.3} {:>6.1}% {:>12} {:>12} {:>12} {:>12} {:>5.0}%\n",
+                label,
                 p.ms,
                 100.0 * p.cycles as f64 / self.frame.cycles.max(1) as f64,
                 p.stack.issue,
@@ -188,8 +206,22 @@ impl MachineReport {
                 p.stack.atomics_sync,
                 p.stack.imbalance_idle,
                 100.0 * p.lane_utilisation()
-            );
+            )
+        };
+        for g in &self.groups {
+            s += &row(&g.phase, g);
+            let steps: Vec<&PhaseReport> = self
+                .phases
+                .iter()
+                .filter(|p| p.phase.contains('.') && group_of(&p.phase) == g.phase)
+                .collect();
+            if steps.len() > 1 {
+                for p in steps {
+                    s += &row(&format!("  {}", &p.phase[g.phase.len() + 1..]), p);
+                }
+            }
         }
+        s += &row("frame", &self.frame);
         s
     }
 }

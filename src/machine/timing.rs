@@ -393,18 +393,24 @@ pub fn frame_total(phases: &[PhaseReport], config: &MachineConfig) -> PhaseRepor
         ..Default::default()
     };
     for p in phases {
-        f.tasks += p.tasks;
-        f.cycles += p.cycles;
-        f.stack.add(&p.stack);
-        f.counters += p.counters;
-        f.memory.add(&p.memory);
-        f.dram_bound += p.dram_bound;
-        for (a, b) in f.core_busy.iter_mut().zip(&p.core_busy) {
-            *a += b;
-        }
+        add_phase(&mut f, p);
     }
     f.ms = config.ms(f.cycles);
     f
+}
+
+/// Adds phase `p` into the total `f` (cycles, tasks, stack, counters, memory, DRAM bound, per-core
+/// busy time; not `ms` and not the schedule).
+pub fn add_phase(f: &mut PhaseReport, p: &PhaseReport) {
+    f.tasks += p.tasks;
+    f.cycles += p.cycles;
+    f.stack.add(&p.stack);
+    f.counters += p.counters;
+    f.memory.add(&p.memory);
+    f.dram_bound += p.dram_bound;
+    for (a, b) in f.core_busy.iter_mut().zip(&p.core_busy) {
+        *a += b;
+    }
 }
 
 #[cfg(test)]

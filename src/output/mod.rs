@@ -1,6 +1,5 @@
-//! Files a render writes (CONTRACTS.md "Images written by a render") and reads back.
+//! Files a render writes (CONTRACTS.md "Images written by a render") and reads back. The statistics'
+//! files are written by [`crate::stats::StatsReport::write`].
 
 pub mod pfm;
 pub mod pictures;
-pub mod plot;
-pub mod stats;

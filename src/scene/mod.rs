@@ -6,6 +6,7 @@
 
 mod obj;
 pub mod shapes;
+pub mod topology;
 
 use std::path::{Path, PathBuf};
 

@@ -9,9 +9,9 @@
 use std::path::Path;
 
 use glam::Vec3;
+use sism::algorithms::reference::receiver_visibility;
 use sism::bvh::SceneBvh;
 use sism::frame::Receiver;
-use sism::reference::receiver_visibility;
 use sism::sampling::{Rng, Strata};
 use sism::scene::Scene;
 

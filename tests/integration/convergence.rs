@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
+use sism::algorithms::reference::{self, ReferenceOptions};
 use sism::bvh::SceneBvh;
 use sism::metrics::compare;
-use sism::reference::{self, ReferenceOptions};
 use sism::scene::Scene;
 
 fn small_plate() -> Scene {

@@ -3,12 +3,14 @@
 
 use std::path::Path;
 
+use sism::algorithms::reference::{self, ReferenceOptions};
+use sism::algorithms::sism::{render_scene, Composition, SceneFrame as SismFrame, SismOptions};
 use sism::bvh::SceneBvh;
+use sism::exec::Exec;
 use sism::frame::VisibilityImage;
 use sism::metrics::{compare, ErrorReport};
-use sism::reference::{self, ReferenceOptions};
+use sism::scene::topology::SceneTopology;
 use sism::scene::Scene;
-use sism::sism::{render_frame, Composition, PreparedScene, SismFrame, SismOptions};
 
 fn load(name: &str, width: u32, height: u32) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
@@ -31,7 +33,12 @@ fn sism_frame(scene: &Scene, composition: Composition) -> SismFrame {
         composition,
         ..Default::default()
     };
-    render_frame(scene, &PreparedScene::new(scene), &options)
+    render_scene(scene, &SceneTopology::build(scene), &options, Exec::Native)
+}
+
+/// Receivers facing away from the light (V = -1).
+fn facing_away(f: &SismFrame) -> u64 {
+    f.visibility.values.iter().filter(|&&v| v == -1.0).count() as u64
 }
 
 /// The frame's visibility values as bits, for exact comparisons.
@@ -83,7 +90,7 @@ fn room_lit_from_inside_uses_a_cube_and_matches() {
     let scene = load("room.toml", 192, 192);
     let (r, frame) = score(&scene, 256, Composition::Additive);
     eprintln!("room: {r:?}");
-    assert_eq!(frame.stats.light_faces, 6);
+    assert_eq!(frame.stats.grid.light_faces, 6);
     assert!(r.mae <= 0.006, "MAE {}", r.mae);
 }
 
@@ -92,27 +99,26 @@ fn facing_away_receivers_and_empty_bins_cost_nothing() {
     let scene = load("sphere.toml", 160, 120);
     let frame = sism_frame(&scene, Composition::Additive);
     let s = &frame.stats;
-    assert!(s.receivers_facing_away > 0, "the sphere's dark side faces away");
-    assert_eq!(s.samples, s.receivers - s.receivers_facing_away);
-    assert!(s.occupied_bins < s.bins, "some bins are empty");
+    let away = facing_away(&frame);
+    assert!(away > 0, "the sphere's dark side faces away");
+    assert_eq!(s.grid.samples, frame.eye.pixels_covered - away);
+    assert!(s.grid.occupied_bins < s.grid.bins, "some bins are empty");
     // Closed meshes: only light-facing triangles count.
     assert!(s.umbra.triangles_back_facing > 0);
-    let facing_away = frame.visibility.values.iter().filter(|&&v| v == -1.0).count() as u64;
-    assert_eq!(facing_away, s.receivers_facing_away);
     // Distributions: ordered quantiles; every occupied cell holds a sample; shadows cross occluders.
-    let [p50, p90, p99, max] = s.samples_per_cell;
+    let [p50, p90, p99, max] = s.grid.samples_per_cell;
     assert!(
         1 <= p50 && p50 <= p90 && p90 <= p99 && p99 <= max,
         "{:?}",
-        s.samples_per_cell
+        s.grid.samples_per_cell
     );
-    let [d50, d90, d99, dmax] = s.depth_complexity;
+    let [d50, d90, d99, dmax] = s.umbra.depth_complexity;
     assert!(
         d50 <= d90 && d90 <= d99 && d99 <= dmax && dmax >= 1,
         "{:?}",
-        s.depth_complexity
+        s.umbra.depth_complexity
     );
-    assert!(s.depth_complexity_mean > 0.0 && s.depth_complexity_mean <= dmax as f64);
+    assert!(s.umbra.depth_complexity_mean > 0.0 && s.umbra.depth_complexity_mean <= dmax as f64);
 }
 
 #[test]
@@ -254,21 +260,34 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
         let native = sism_frame(&scene, composition);
         let options = SismOptions {
             composition,
-            exec: sism::sism::Exec::Counting,
             ..Default::default()
         };
-        let counted = render_frame(&scene, &PreparedScene::new(&scene), &options);
+        let counted = render_scene(&scene, &SceneTopology::build(&scene), &options, Exec::Counting);
         assert_eq!(bits(&native), bits(&counted), "{composition:?}");
-        assert!(native.records.is_empty());
-        let phases: Vec<&str> = counted.records.iter().map(|p| p.phase.as_str()).collect();
-        let expected: &[&str] = match composition {
-            Composition::Additive | Composition::Sampled => {
-                &["eye_pass", "grid", "umbra", "penumbra", "resolve"]
-            }
-            Composition::Independent => &["eye_pass", "grid", "occlusion", "resolve"],
+        assert!(native.log.records().is_empty());
+        let mut phases: Vec<&str> = counted.log.records().iter().map(|p| p.group()).collect();
+        phases.dedup();
+        assert_eq!(
+            phases,
+            [
+                "eye_pass",
+                "light_samples",
+                "grid",
+                "umbra",
+                "silhouettes",
+                "penumbra",
+                "resolve"
+            ],
+            "{composition:?}"
+        );
+        let steps: Vec<&str> = counted.log.records().iter().map(|p| p.phase.as_str()).collect();
+        let kernel = match composition {
+            Composition::Additive => "penumbra.eq3",
+            Composition::Sampled => "penumbra.light_points",
+            Composition::Independent => "penumbra.fused",
         };
-        assert_eq!(phases, expected);
-        for p in &counted.records {
+        assert!(steps.contains(&kernel), "{composition:?}: {steps:?}");
+        for p in counted.log.records() {
             assert!(!p.tasks.is_empty(), "{}", p.phase);
             let instructions: u64 = p.tasks.iter().map(|t| t.counters.instructions()).sum();
             assert!(instructions > 0, "{}", p.phase);
@@ -282,7 +301,7 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
 #[test]
 fn light_point_counts_equal_ray_casts_to_the_same_points() {
     use glam::Vec3;
-    use sism::sism::sampled::{light_point_offsets, LightPointEstimator, LIGHT_POINTS};
+    use sism::algorithms::sism::sampled::{light_point_offsets, LightPointEstimator, LIGHT_POINTS};
     // Three overlapping tilted plates at different heights (their shadows overlap) over the ground.
     let plates = "[[quad]]\ncorner = [-0.8, 0.8, 0.6]\nedge_u = [1.0, 0.1, 0.0]\nedge_v = [0.1, 0.0, -1.0]\n\
                   [[quad]]\ncorner = [-0.3, 1.2, 0.3]\nedge_u = [0.9, -0.2, 0.2]\nedge_v = [-0.1, 0.1, -0.9]\n\
@@ -297,7 +316,7 @@ fn light_point_counts_equal_ray_casts_to_the_same_points() {
         light_point_estimator: LightPointEstimator::Fraction,
         ..Default::default()
     };
-    let frame = render_frame(&scene, &PreparedScene::new(&scene), &options);
+    let frame = render_scene(&scene, &SceneTopology::build(&scene), &options, Exec::Native);
     let tris: Vec<[Vec3; 3]> = scene.triangles().collect();
     let c = Vec3::from(scene.light.center);
     let r = scene.light.radius;

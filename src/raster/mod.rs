@@ -1,25 +1,19 @@
-//! Eye pass: the receiver points of every pixel by a binned, sort-middle software rasterizer in
-//! Larrabee's style (Seiler et al. 2008), instead of ray casting.
+//! The binned, sort-middle software rasterizer in Larrabee's style (Seiler et al. 2008), for any
+//! pinhole view: the eye view (receivers, [`eye`]) now, light views (depth maps) next.
 //!
-//! 1. **Front end** (rayon over fixed chunks of [`FRONT_END_CHUNK`] triangles): every scene triangle
-//!    is transformed to the CONTRACTS.md camera's view space, clipped against the near plane
-//!    `z > z_near` (a triangle crossing it becomes one or two triangles), projected to screen space
-//!    (pixel centres at `i + 0.5`, `j + 0.5`, y down), culled when degenerate or off screen, and
-//!    binned: its pixel bounding box gives the [`TILE`]×[`TILE`] tiles it may touch. The per-tile
-//!    lists are built by a counting sort of the (tile, triangle) pairs, in triangle order, so they are
-//!    the same whatever the host thread count.
-//! 2. **Back end** (rayon over tiles; a tile is a task and owns its pixels): for each triangle of the
+//! 1. **Front end** (step `front_end`, fixed chunks of [`FRONT_END_CHUNK`] triangles): every scene
+//!    triangle is transformed to the view's space, clipped against the near plane `z > z_near` (a
+//!    triangle crossing it becomes one or two triangles), projected to screen space (pixel centres at
+//!    `i + 0.5`, `j + 0.5`, y down), culled when degenerate or off screen, and binned: its pixel
+//!    bounding box gives the [`TILE`]×[`TILE`] tiles it may touch.
+//! 2. **Tile lists** (step `tile_lists`): a counting sort of the (tile, triangle) pairs by tile, chunks
+//!    in order, so every tile's list is in triangle order whatever the host thread count.
+//! 3. **Back end** (step `tiles`, one task per tile; a tile owns its pixels): for each triangle of the
 //!    tile's list, hierarchical rejection on 16 lanes (the 16 sub-tiles of 16×16 pixels, then the 16
 //!    blocks of 4×4 pixels of a surviving sub-tile), then the three edge functions and the depth
 //!    `1/z` of a 4×4 block as one 16-lane vector, and a Z-buffer test keeping the larger `1/z`.
-//!    Written once against `sism_simd`, so it runs natively or under the counting context.
-//! 3. **Resolve** (the end of each tile's task, while its triangles are in cache; the tile writes its
-//!    own pixels of the output frame): the receiver of a covered pixel is the exact intersection of
-//!    its CONTRACTS.md centre ray with the winning triangle's plane, so it matches ray casting to
-//!    float precision; the normal is the unit geometric normal flipped to face the camera.
-//!
-//! The near plane is [`NEAR_PLANE_FRACTION`] of the scene's bounding-box diagonal in front of the
-//! eye: geometry closer to the eye plane than that is not seen (ray casting would see it).
+//!    At the end of each tile's task, while its triangles are in cache, a [`TileResolve`] turns the
+//!    tile's depth buffer into the view's output (receivers for the eye view).
 //!
 //! **Watertightness.** Each edge function is evaluated in a canonical vertex order (the endpoint with
 //! the smaller `(y, x)` first) and only then negated for the triangle's side, so the two triangles
@@ -29,15 +23,17 @@
 //! `f64` relative to the tile origin and evaluated in `f32` with two fused multiply-adds, so huge
 //! triangles (clipped close to the eye) stay accurate to a small fraction of a pixel.
 
+pub mod eye;
+
 use std::mem::MaybeUninit;
-use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Recorder, Simd, TaskRecord};
+use sism_simd::{Kernel, Mask16, Simd};
 
-use crate::frame::{Receiver, Receivers};
+use crate::exec::{task_kind, Phase};
 use crate::scene::{CameraFrame, Scene};
+use crate::vmath::lanes;
 
 /// Side of a screen tile, pixels. A tile is one back-end task.
 pub const TILE: u32 = 64;
@@ -47,133 +43,145 @@ const TILE_PIXELS: usize = (TILE * TILE) as usize;
 const SUB: u32 = 16;
 /// Triangles per front-end task.
 pub const FRONT_END_CHUNK: usize = 4096;
-/// Near plane distance as a fraction of the scene's bounding-box diagonal.
-pub const NEAR_PLANE_FRACTION: f32 = 1e-4;
-/// Task kind of a front-end chunk (transform, clip, project, bin) in counting records.
-pub const TASK_FRONT_END: u32 = 0x100;
-/// Task kind of a tile (rasterize and depth test) in counting records.
-pub const TASK_TILE: u32 = 0x101;
-/// Task kind of a resolve band (receivers of [`TILE`] rows) in counting records.
-pub const TASK_RESOLVE: u32 = 0x102;
 /// Per-pixel triangle index of a pixel that sees nothing.
 pub const NO_TRIANGLE: u32 = u32::MAX;
 
-/// How the kernels run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Exec {
-    /// `sism_simd::run_native`: the fastest backend, no records.
-    #[default]
-    Native,
-    /// `sism_simd::run_counting`: the same results bit for bit, plus one [`TaskRecord`] per task.
-    Counting,
+/// A view to rasterize: a pinhole frame (CONTRACTS.md camera conventions, any position and
+/// orientation) and its near plane.
+#[derive(Clone, Copy, Debug)]
+pub struct RasterView {
+    pub frame: CameraFrame,
+    /// Near-plane distance along the view direction, world units, > 0: nearer geometry is clipped.
+    pub z_near: f32,
 }
 
-/// Counts and times of one eye pass.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct EyePassStats {
-    /// Scene triangles read.
-    pub triangles_in: u64,
-    /// Triangles that crossed the near plane and were clipped (each gave 1 or 2 screen triangles).
-    pub triangles_clipped: u64,
-    /// Triangles that produced no screen triangle: degenerate (zero area, in the world or on screen),
-    /// entirely behind the near plane, or entirely outside the image.
-    pub triangles_culled: u64,
-    /// Screen triangles after clipping and culling, as binned.
-    pub screen_triangles: u64,
-    /// Tiles of the image (`ceil(W/64) * ceil(H/64)`).
-    pub tiles: u64,
-    /// Entries over all per-tile triangle lists.
-    pub tile_triangle_pairs: u64,
-    /// 16×16-pixel sub-tiles that survived the first rejection level.
-    pub subtiles_tested: u64,
-    /// 4×4-pixel blocks that survived the second level and were rasterized (16 lanes each).
-    pub blocks_tested: u64,
-    /// Of those, blocks found entirely inside the triangle, so no edge function was evaluated.
-    pub blocks_full: u64,
-    /// Pixel writes that passed the depth test (overdraw included).
-    pub depth_writes: u64,
-    /// Pixels with a receiver.
-    pub pixels_covered: u64,
-    /// Wall time of the front end (transform, clip, bin, sort).
-    pub time_front_end: Duration,
-    /// Wall time of the back end (tiles: rasterize and resolve).
-    pub time_back_end: Duration,
-    /// Wall time of the whole pass.
-    pub time: Duration,
+impl RasterView {
+    /// Tiles along x and y.
+    pub fn tiles(&self) -> (u32, u32) {
+        (self.frame.width.div_ceil(TILE), self.frame.height.div_ceil(TILE))
+    }
 }
 
-/// Everything an eye pass produces.
-#[derive(Clone, Debug)]
-pub struct EyePassOutput {
-    /// The receivers, exactly as [`crate::reference::cast_primary_rays`] lays them out.
-    pub receivers: Receivers,
-    /// Per pixel, row-major: the winning triangle's index in [`Scene::triangles`] order, or
-    /// [`NO_TRIANGLE`].
-    pub triangles: Vec<u32>,
-    /// Counts and times.
-    pub stats: EyePassStats,
-    /// Under [`Exec::Counting`]: the task records, front-end chunks in chunk order, then tiles in
-    /// row-major tile order, each tile as a [`TASK_TILE`] record followed by its [`TASK_RESOLVE`] one. Empty under [`Exec::Native`].
-    pub records: Vec<TaskRecord>,
+crate::declare_stats! {
+    /// Counts of one rasterization (rows without prefix; a view adds its own, e.g. `eye.`).
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct RasterStats {
+        /// Scene triangles read.
+        pub triangles_in: u64 => ("triangles_in", "triangles", "triangles entering the rasterizer"),
+        /// Triangles that crossed the near plane and were clipped (each gave 1 or 2 screen triangles).
+        pub triangles_clipped: u64 => ("triangles_clipped", "triangles", "triangles clipped at the near plane"),
+        /// Triangles that produced no screen triangle: degenerate (zero area, in the world or on
+        /// screen), entirely behind the near plane, or entirely outside the image.
+        pub triangles_culled: u64 => ("triangles_culled", "triangles", "triangles off screen, degenerate or behind the near plane: skipped"),
+        /// Screen triangles after clipping and culling, as binned.
+        pub screen_triangles: u64 => ("screen_triangles", "triangles", "screen triangles after clipping and culling"),
+        /// Tiles of the image (`ceil(W/64) * ceil(H/64)`).
+        pub tiles: u64 => ("tiles", "tiles", "64x64-pixel tiles (back-end tasks)"),
+        /// Entries over all per-tile triangle lists.
+        pub tile_triangle_pairs: u64 => ("tile_triangle_pairs", "pairs", "(screen tile, triangle) pairs after binning"),
+        /// 16×16-pixel sub-tiles that survived the first rejection level.
+        pub subtiles_tested: u64 => ("subtiles_tested", "subtiles", "16x16 sub-tiles surviving the first rejection level"),
+        /// 4×4-pixel blocks that survived the second level and were rasterized (16 lanes each).
+        pub blocks_tested: u64 => ("blocks_tested", "blocks", "4x4 pixel blocks tested 16-wide"),
+        /// Of those, blocks found entirely inside the triangle, so no edge function was evaluated.
+        pub blocks_full: u64 => ("blocks_full", "blocks", "blocks entirely inside their triangle (no edge test)"),
+        /// Pixel writes that passed the depth test (overdraw included).
+        pub depth_writes: u64 => ("depth_writes", "writes", "pixel writes passing the depth test (overdraw included)"),
+        /// Pixels the resolve reported covered.
+        pub pixels_covered: u64 => ("pixels_covered", "pixels", "pixels that see a triangle"),
+    }
 }
 
-/// The receivers of every pixel of `scene`'s camera, by rasterization, with native kernels.
-pub fn eye_pass(scene: &Scene) -> (Receivers, EyePassStats) {
-    let out = eye_pass_with(scene, Exec::Native);
-    (out.receivers, out.stats)
+/// One tile's rasterized state, handed to its [`TileResolve`].
+pub struct TileRaster<'a> {
+    /// The view.
+    pub view: &'a RasterView,
+    /// Pixel position of the tile's top-left corner.
+    pub origin: (u32, u32),
+    /// Depth and winning triangle per pixel, block-major (see [`TileBuf::index`]).
+    pub buf: &'a TileBuf,
+    /// The tile's triangles by list position (what the buffer's ids index).
+    pub triangles: &'a TileTriangles,
 }
 
-/// The eye pass with the kernels run as `exec` says. The output is bit-identical for both
-/// [`Exec`] values and for any host thread count.
-pub fn eye_pass_with(scene: &Scene, exec: Exec) -> EyePassOutput {
-    let t_start = Instant::now();
-    let frame = scene.camera.frame();
-    let (width, height) = (frame.width, frame.height);
-    let tiles_x = width.div_ceil(TILE);
-    let tiles_y = height.div_ceil(TILE);
+/// Turns a rasterized tile into a view's output. Implementations run inside the tile's kernel
+/// (mark `resolve` `#[inline(always)]` so it compiles in the kernel's target-feature context).
+pub trait TileResolve: Sync {
+    /// A tile's piece of the output, handed to its task (one per tile, row-major tile order).
+    type Out<'a>: Send;
+    /// Task kind of the resolve in counting records.
+    const TASK_KIND: u32;
+    /// Writes the tile's output; returns the number of pixels covered.
+    fn resolve<S: Simd>(&self, s: S, tile: &TileRaster<'_>, out: Self::Out<'_>) -> u64;
+}
+
+/// A tile's pieces of one per-pixel output buffer: one slice of at most [`TILE`] pixels per image
+/// row of the tile, top to bottom. Uninitialised on entry; a resolve writes every element.
+pub struct TileRows<'a, T> {
+    pub rows: Vec<&'a mut [MaybeUninit<T>]>,
+}
+
+/// Splits the spare capacity of `buf` (at least `width * height` elements) into each tile's rows,
+/// row-major tile order. The caller sets the length once every tile has written all its elements.
+pub fn tile_rows<T>(buf: &mut Vec<T>, width: u32, height: u32) -> Vec<TileRows<'_, T>> {
+    let (w, n) = (width as usize, width as usize * height as usize);
+    let tiles_x = width.div_ceil(TILE) as usize;
+    let tile_count = tiles_x * height.div_ceil(TILE) as usize;
+    buf.reserve(n);
+    let mut tiles: Vec<TileRows<'_, T>> = (0..tile_count).map(|_| TileRows { rows: Vec::new() }).collect();
+    for (y, row) in buf.spare_capacity_mut()[..n].chunks_mut(w).enumerate() {
+        let first = (y / TILE as usize) * tiles_x;
+        for (tx, piece) in row.chunks_mut(TILE as usize).enumerate() {
+            tiles[first + tx].rows.push(piece);
+        }
+    }
+    tiles
+}
+
+/// Rasterizes `scene`'s triangles into `view`, as the three steps of the module docs in `phase`,
+/// handing each tile to `resolve` with its piece of `outs` (one per tile, row-major tile order).
+/// The result is bit-identical for any execution and any host thread count.
+pub fn rasterize<'o, R: TileResolve>(
+    phase: &mut Phase,
+    scene: &Scene,
+    view: &RasterView,
+    resolve: &R,
+    outs: Vec<R::Out<'o>>,
+) -> RasterStats {
+    let frame = &view.frame;
+    let (tiles_x, tiles_y) = view.tiles();
     let tile_count = (tiles_x * tiles_y) as usize;
+    assert_eq!(outs.len(), tile_count, "one output piece per tile");
 
     // ---- Front end -------------------------------------------------------------------------
-    let (lo, hi) = scene.bounds();
-    let diagonal = (hi - lo).length();
-    let z_near = if diagonal.is_finite() && diagonal > 0.0 {
-        NEAR_PLANE_FRACTION * diagonal
-    } else {
-        1e-6
-    };
-    let front = FrontEnd::new(&frame, z_near, tiles_x);
+    let front = FrontEnd::new(frame, view.z_near, tiles_x);
     let mut offsets = Vec::with_capacity(scene.meshes.len() + 1);
+    let mut total = 0usize;
     offsets.push(0usize);
     for m in &scene.meshes {
-        offsets.push(offsets.last().unwrap() + m.triangles.len());
+        total += m.triangles.len();
+        offsets.push(total);
     }
-    let total = *offsets.last().unwrap();
-    let chunks: Vec<(FrontOut, Vec<TaskRecord>)> = (0..total.div_ceil(FRONT_END_CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let start = c * FRONT_END_CHUNK;
-            let end = (start + FRONT_END_CHUNK).min(total);
-            run(
-                exec,
-                FrontEndKernel {
-                    scene,
-                    offsets: &offsets,
-                    range: start..end,
-                    front: &front,
-                },
-            )
-        })
-        .collect();
+    let chunks: Vec<FrontOut> = phase.run_par(
+        "front_end",
+        (0..total.div_ceil(FRONT_END_CHUNK))
+            .into_par_iter()
+            .map(|c| FrontEndKernel {
+                scene,
+                offsets: &offsets,
+                range: c * FRONT_END_CHUNK..((c + 1) * FRONT_END_CHUNK).min(total),
+                front: &front,
+            }),
+    );
 
-    let mut stats = EyePassStats {
+    let mut stats = RasterStats {
         tiles: tile_count as u64,
-        ..EyePassStats::default()
+        ..RasterStats::default()
     };
-    let mut records = Vec::new();
     // Counting sort of the (tile, triangle) pairs by tile, chunks in order: each tile's list is in
     // triangle order. The chunks' triangles stay where they are (a packed id names chunk and slot).
     let mut counts = vec![0u32; tile_count + 1];
-    for (out, recs) in &chunks {
+    for out in &chunks {
         stats.triangles_in += out.triangles_in;
         stats.triangles_clipped += out.triangles_clipped;
         stats.triangles_culled += out.triangles_culled;
@@ -181,96 +189,49 @@ pub fn eye_pass_with(scene: &Scene, exec: Exec) -> EyePassOutput {
         for &(tile, _) in &out.pairs {
             counts[tile as usize + 1] += 1;
         }
-        records.extend(recs.iter().cloned());
     }
     for i in 0..tile_count {
         counts[i + 1] += counts[i];
     }
     let mut fill: Vec<u32> = counts[..tile_count].to_vec();
     let mut lists = vec![0u32; counts[tile_count] as usize];
-    for (c, (out, _)) in chunks.iter().enumerate() {
-        for &(tile, local) in &out.pairs {
-            let slot = &mut fill[tile as usize];
-            lists[*slot as usize] = pack_id(c, local);
-            *slot += 1;
-        }
+    // One task per chunk; they share the fill positions, so the host runs them in chunk order.
+    for (c, out) in chunks.iter().enumerate() {
+        phase.run(
+            "tile_lists",
+            TileListsKernel {
+                chunk: c,
+                pairs: &out.pairs,
+                fill: &mut fill,
+                lists: &mut lists,
+            },
+        );
     }
     let tris = TriStore {
-        chunks: chunks.iter().map(|(out, _)| &out.tris[..]).collect(),
+        chunks: chunks.iter().map(|out| &out.tris[..]).collect(),
     };
     stats.tile_triangle_pairs = lists.len() as u64;
-    let t_back = Instant::now();
-    stats.time_front_end = t_back - t_start;
 
     // ---- Back end: one task per tile, rasterize then resolve --------------------------------
-    // The frame's vectors are written once, in place, by the tiles (pre-filling ~30 bytes per pixel
-    // on one thread would cost as much as the resolve). Hand each tile its own row pieces.
-    let w = width as usize;
-    let n = w * height as usize;
-    let mut pixels: Vec<Option<Receiver>> = Vec::with_capacity(n);
-    let mut triangles: Vec<u32> = Vec::with_capacity(n);
-    let mut tile_rows: Vec<TileRows<'_>> = (0..tile_count).map(|_| TileRows::default()).collect();
-    for (y, (prow, trow)) in pixels.spare_capacity_mut()[..n]
-        .chunks_mut(w)
-        .zip(triangles.spare_capacity_mut()[..n].chunks_mut(w))
-        .enumerate()
-    {
-        let first = (y / TILE as usize) * tiles_x as usize;
-        for (tx, (p, t)) in prow
-            .chunks_mut(TILE as usize)
-            .zip(trow.chunks_mut(TILE as usize))
-            .enumerate()
-        {
-            tile_rows[first + tx].pixels.push(p);
-            tile_rows[first + tx].triangles.push(t);
-        }
-    }
-    let tiles: Vec<(TileCounts, Vec<TaskRecord>)> = tile_rows
-        .into_par_iter()
-        .enumerate()
-        .map(|(t, rows)| {
-            let list = &lists[counts[t] as usize..counts[t + 1] as usize];
-            let origin = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
-            run(
-                exec,
-                TileKernel {
-                    frame: &frame,
-                    tris: &tris,
-                    list,
-                    origin,
-                    rows,
-                },
-            )
-        })
-        .collect();
-    // SAFETY: every tile's kernel writes every element of every row piece it was given (each
-    // pixel, covered or not), and the row pieces partition 0..n. Had one panicked, we would not
-    // get here.
-    unsafe {
-        pixels.set_len(n);
-        triangles.set_len(n);
-    }
-    for (c, recs) in tiles {
+    let tiles: Vec<TileCounts> = phase.run_par(
+        "tiles",
+        outs.into_par_iter().enumerate().map(|(t, out)| TileKernel {
+            view,
+            tris: &tris,
+            list: &lists[counts[t] as usize..counts[t + 1] as usize],
+            origin: ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE),
+            resolve,
+            out,
+        }),
+    );
+    for c in tiles {
         stats.subtiles_tested += c.subtiles_tested;
         stats.blocks_tested += c.blocks_tested;
         stats.blocks_full += c.blocks_full;
         stats.depth_writes += c.depth_writes;
         stats.pixels_covered += c.pixels_covered;
-        records.extend(recs);
     }
-    let t_end = Instant::now();
-    stats.time_back_end = t_end - t_back;
-    stats.time = t_end - t_start;
-    EyePassOutput {
-        receivers: Receivers {
-            width,
-            height,
-            pixels,
-        },
-        triangles,
-        stats,
-        records,
-    }
+    stats
 }
 
 /// Bits of a packed screen-triangle id that hold its slot in its front-end chunk (a chunk emits at
@@ -296,23 +257,30 @@ impl TriStore<'_> {
     }
 }
 
-/// A tile's pieces of the frame: one slice of at most [`TILE`] pixels per image row of the tile,
-/// top to bottom. Uninitialised on entry; the tile writes every element.
-#[derive(Default)]
-struct TileRows<'a> {
-    pixels: Vec<&'a mut [MaybeUninit<Option<Receiver>>]>,
-    triangles: Vec<&'a mut [MaybeUninit<u32>]>,
+/// Step `tile_lists`: a front-end chunk's (tile, triangle) pairs written into the per-tile lists at
+/// the tiles' fill positions (the histogram before it is folded into this task's scalar count).
+struct TileListsKernel<'a> {
+    chunk: usize,
+    pairs: &'a [(u32, u32)],
+    fill: &'a mut [u32],
+    lists: &'a mut [u32],
 }
 
-/// Runs kernel `k` natively or under a fresh recorder (one per task: recorders are per thread).
-fn run<K: Kernel>(exec: Exec, k: K) -> (K::Output, Vec<TaskRecord>) {
-    match exec {
-        Exec::Native => (sism_simd::run_native(k), Vec::new()),
-        Exec::Counting => {
-            let rec = Recorder::new();
-            let out = sism_simd::run_counting(&rec, k);
-            (out, rec.take_tasks())
+impl Kernel for TileListsKernel<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::RASTER_TILE_LISTS);
+        s.scalar_read(self.pairs);
+        for &(tile, local) in self.pairs {
+            let slot = &mut self.fill[tile as usize];
+            self.lists[*slot as usize] = pack_id(self.chunk, local);
+            s.scalar_write(&self.lists[*slot as usize..*slot as usize + 1]);
+            *slot += 1;
         }
+        // Per pair: histogram increment, then read, store and increment of the fill position.
+        s.scalar_ops(6 * self.pairs.len() as u64);
+        s.end_task();
     }
 }
 
@@ -500,7 +468,7 @@ impl Kernel for FrontEndKernel<'_> {
     type Output = FrontOut;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> FrontOut {
-        s.begin_task(TASK_FRONT_END);
+        s.begin_task(task_kind::RASTER_FRONT_END);
         let mut out = FrontOut::default();
         let mut m = self.offsets.partition_point(|&o| o <= self.range.start) - 1;
         for g in self.range.clone() {
@@ -529,11 +497,11 @@ impl Kernel for FrontEndKernel<'_> {
 /// A tile's depth and triangle buffers in block-major order: 4×4 block `(bx, by)` (in blocks) holds
 /// lanes `16 * (16 * by + bx) ..` with lane `4 * row + column`, so a block is one aligned vector.
 #[repr(C, align(64))]
-struct TileBuf {
+pub struct TileBuf {
     /// Largest `1/z` so far, 1/world units; 0 = nothing (infinitely far).
-    inv_z: [f32; TILE_PIXELS],
+    pub inv_z: [f32; TILE_PIXELS],
     /// Winning triangle's position in the tile's list, -1 = none.
-    id: [i32; TILE_PIXELS],
+    pub id: [i32; TILE_PIXELS],
 }
 
 impl TileBuf {
@@ -546,7 +514,7 @@ impl TileBuf {
 
     /// Index in the buffers of the pixel at tile-local `(x, y)`.
     #[inline]
-    fn index(x: u32, y: u32) -> usize {
+    pub fn index(x: u32, y: u32) -> usize {
         (((y / 4) * (TILE / 4) + x / 4) * 16 + (y % 4) * 4 + x % 4) as usize
     }
 }
@@ -621,28 +589,23 @@ fn tile_setup(t: &ScreenTri, ox: f64, oy: f64) -> ([EdgeSetup; 3], [f32; 5]) {
     (edges, [gx as f32, gy as f32, d as f32, lo as f32, hi as f32])
 }
 
-/// Rasterizes a tile's triangle list into a [`TileBuf`], then resolves the tile's receivers.
-struct TileKernel<'a> {
-    frame: &'a CameraFrame,
+/// Rasterizes a tile's triangle list into a [`TileBuf`], then hands it to the view's resolve.
+struct TileKernel<'a, 'o, R: TileResolve> {
+    view: &'a RasterView,
     tris: &'a TriStore<'a>,
     /// Packed ids of the tile's triangles, ascending (triangle order).
     list: &'a [u32],
     /// Pixel position of the tile's top-left corner.
     origin: (u32, u32),
-    /// The tile's pieces of the output frame.
-    rows: TileRows<'a>,
+    resolve: &'a R,
+    /// The tile's piece of the output.
+    out: R::Out<'o>,
 }
 
 /// An edge's coefficients broadcast to registers `(a, b, e)`.
 #[inline(always)]
 fn splat_edge<S: Simd>(s: S, e: &EdgeSetup) -> (S::F32, S::F32, S::F32) {
     (s.splat_f(e.a), s.splat_f(e.b), s.splat_f(e.e))
-}
-
-/// 16 lanes `[c(k) for k in 0..16]` as an array.
-#[inline(always)]
-fn lanes(c: impl Fn(usize) -> f32) -> [f32; 16] {
-    std::array::from_fn(c)
 }
 
 /// Bits of the 4×4 grid cells (`16 * row + ...` as `4 * row + col`) whose columns are in
@@ -657,11 +620,11 @@ fn grid_mask(c0: u32, c1: u32, r0: u32, r1: u32) -> Mask16 {
     Mask16(m)
 }
 
-impl Kernel for TileKernel<'_> {
+impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
     type Output = TileCounts;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> TileCounts {
-        s.begin_task(TASK_TILE);
+        s.begin_task(task_kind::RASTER_TILE);
         let mut counts = TileCounts::default();
         let (ox, oy) = self.origin;
         let mut buf = TileBuf::new();
@@ -673,7 +636,7 @@ impl Kernel for TileKernel<'_> {
         let sub_y = s.from_array_f(lanes(|k| ((k / 4) * 16) as f32 + 8.0));
         let blk_x = s.from_array_f(lanes(|k| ((k % 4) * 4) as f32 + 2.0));
         let blk_y = s.from_array_f(lanes(|k| ((k / 4) * 4) as f32 + 2.0));
-        let mut table = ResolveTable::with_capacity(self.list.len());
+        let mut table = TileTriangles::with_capacity(self.list.len());
         for (slot, &id) in self.list.iter().enumerate() {
             let t = self.tris.get(id);
             table.push(t);
@@ -758,23 +721,33 @@ impl Kernel for TileKernel<'_> {
         }
         s.end_task();
         // Resolve, while the tile's triangles are still in cache.
-        s.begin_task(TASK_RESOLVE);
-        counts.pixels_covered = resolve(s, self.frame, &table, &buf, self.origin, self.rows);
+        s.begin_task(R::TASK_KIND);
+        let tile = TileRaster {
+            view: self.view,
+            origin: self.origin,
+            buf: &buf,
+            triangles: &table,
+        };
+        counts.pixels_covered = self.resolve.resolve(s, &tile, self.out);
         s.end_task();
         counts
     }
 }
 
-/// What the resolve needs of a tile's triangles, structure-of-arrays by list position (gathered).
-struct ResolveTable {
-    nx: Vec<f32>,
-    ny: Vec<f32>,
-    nz: Vec<f32>,
-    plane_dist: Vec<f32>,
-    original: Vec<i32>,
+/// What a resolve needs of a tile's triangles, structure-of-arrays by list position (gathered by the
+/// buffer's ids).
+pub struct TileTriangles {
+    /// Unit geometric normal of the source triangle, `(b - a) x (c - a)` normalised (not flipped).
+    pub nx: Vec<f32>,
+    pub ny: Vec<f32>,
+    pub nz: Vec<f32>,
+    /// `normal · (corner - eye)`, world units: the plane's signed distance from the view's eye.
+    pub plane_dist: Vec<f32>,
+    /// Index of the source triangle in [`Scene::triangles`] order.
+    pub original: Vec<i32>,
 }
 
-impl ResolveTable {
+impl TileTriangles {
     fn with_capacity(n: usize) -> Self {
         Self {
             nx: Vec::with_capacity(n),
@@ -793,141 +766,4 @@ impl ResolveTable {
         self.plane_dist.push(t.plane_dist);
         self.original.push(t.original as i32);
     }
-}
-
-/// A world vector broadcast to three registers.
-#[inline(always)]
-fn splat3<S: Simd>(s: S, a: Vec3) -> [S::F32; 3] {
-    [s.splat_f(a.x), s.splat_f(a.y), s.splat_f(a.z)]
-}
-
-/// `a · b` in glam's order: `(a0 b0 + a1 b1) + a2 b2`, no fused operations.
-#[inline(always)]
-fn dot3<S: Simd>(s: S, a: &[S::F32; 3], b: &[S::F32; 3]) -> S::F32 {
-    s.add_f(
-        s.add_f(s.mul_f(a[0], b[0]), s.mul_f(a[1], b[1])),
-        s.mul_f(a[2], b[2]),
-    )
-}
-
-/// Writes the receivers of a tile's pixels from its buffer, a 4×4 block (16 lanes) at a time;
-/// returns the number covered. The receiver is where the pixel's CONTRACTS.md centre ray meets the
-/// winning triangle's plane. The ray direction is computed with exactly the operations, in the
-/// order, of [`CameraFrame::ray_direction`] (glam's scalar `Vec3`: no fused operations, correctly
-/// rounded division and square root), so it is bit-identical to the one ray casting uses.
-#[inline(always)]
-#[allow(clippy::needless_range_loop)] // index loops keep every vector op in the kernel body
-fn resolve<S: Simd>(
-    s: S,
-    f: &CameraFrame,
-    table: &ResolveTable,
-    buf: &TileBuf,
-    (ox, oy): (u32, u32),
-    rows: TileRows<'_>,
-) -> u64 {
-    let mut pixels = rows.pixels;
-    let mut triangles = rows.triangles;
-    let th = pixels.len() as u32;
-    let tw = pixels.first().map_or(0, |r| r.len()) as u32;
-    let (one, two, half, zero) = (s.splat_f(1.0), s.splat_f(2.0), s.splat_f(0.5), s.splat_f(0.0));
-    let (w, h) = (s.splat_f(f.width as f32), s.splat_f(f.height as f32));
-    let (tan, aspect) = (s.splat_f(f.tan_half_fov), s.splat_f(f.aspect));
-    let (fw, rt, up, eye) = (
-        splat3(s, f.forward),
-        splat3(s, f.right),
-        splat3(s, f.up),
-        splat3(s, f.eye),
-    );
-    let lane_x = s.from_array_f(lanes(|k| (k % 4) as f32));
-    let lane_y = s.from_array_f(lanes(|k| (k / 4) as f32));
-    let mut covered = 0u64;
-    for by in (0..th).step_by(4) {
-        for bx in (0..tw).step_by(4) {
-            let base = TileBuf::index(bx, by);
-            let slot = s.load_i(&buf.id[base..base + 16]);
-            let hit = s.cmp_ge_i(slot, s.splat_i(0));
-            let rows_here = (th - by).min(4) as usize;
-            let cols_here = (tw - bx).min(4) as usize;
-            s.scalar_ops(4);
-            if !s.mask_any(hit) {
-                for r in 0..rows_here {
-                    let row = (by as usize) + r;
-                    for c in 0..cols_here {
-                        pixels[row][bx as usize + c].write(None);
-                        triangles[row][bx as usize + c].write(NO_TRIANGLE);
-                    }
-                }
-                s.scalar_ops(2 * (rows_here * cols_here) as u64);
-                continue;
-            }
-            // Pixel indices as floats (exact: sides are at most 32768).
-            let i = s.add_f(lane_x, s.splat_f((ox + bx) as f32));
-            let j = s.add_f(lane_y, s.splat_f((oy + by) as f32));
-            // sx = (2 (i + 0.5) / W - 1) t a; sy = (1 - 2 (j + 0.5) / H) t.
-            let sx = s.div_f(s.mul_f(two, s.add_f(i, half)), w);
-            let sx = s.mul_f(s.mul_f(s.sub_f(sx, one), tan), aspect);
-            let sy = s.div_f(s.mul_f(two, s.add_f(j, half)), h);
-            let sy = s.mul_f(s.sub_f(one, sy), tan);
-            // d = forward + sx right + sy up, then normalised as glam does: d * (1 / sqrt(d · d)).
-            // (No closures or array maps here: they would not inline into the backend's
-            // target-feature entry point, and every vector op would become a call.)
-            let mut d = [zero; 3];
-            for c in 0..3 {
-                d[c] = s.add_f(s.add_f(fw[c], s.mul_f(sx, rt[c])), s.mul_f(sy, up[c]));
-            }
-            let inv_len = s.div_f(one, s.sqrt_f(dot3(s, &d, &d)));
-            let mut dir = [zero; 3];
-            for c in 0..3 {
-                dir[c] = s.mul_f(d[c], inv_len);
-            }
-            // The winning triangle's plane, gathered by list position.
-            let n = [
-                s.mask_gather_f(zero, hit, &table.nx, slot),
-                s.mask_gather_f(zero, hit, &table.ny, slot),
-                s.mask_gather_f(zero, hit, &table.nz, slot),
-            ];
-            let plane_dist = s.mask_gather_f(zero, hit, &table.plane_dist, slot);
-            let original = s.mask_gather_i(s.splat_i(-1), hit, &table.original, slot);
-            let denom = dot3(s, &n, &dir);
-            let dist = s.div_f(plane_dist, denom);
-            // Grazing rays (plane nearly parallel, dist not finite or not ahead) use the rasterized
-            // depth instead: the centre ray at view depth z is eye + z d (d's forward part is 1).
-            let ahead = s.mask_and(s.cmp_gt_f(dist, zero), s.cmp_lt_f(dist, s.splat_f(f32::INFINITY)));
-            let inv_z = s.load_f(&buf.inv_z[base..base + 16]);
-            // Flip the normal to face the camera.
-            let away = s.cmp_gt_f(denom, zero);
-            let mut pos = [[0.0f32; 16]; 3];
-            let mut nrm = [[0.0f32; 16]; 3];
-            for c in 0..3 {
-                let on_plane = s.add_f(eye[c], s.mul_f(dir[c], dist));
-                let by_depth = s.add_f(eye[c], s.div_f(d[c], inv_z));
-                pos[c] = s.to_array_f(s.select_f(ahead, on_plane, by_depth));
-                nrm[c] = s.to_array_f(s.select_f(away, s.neg_f(n[c]), n[c]));
-            }
-            let original = s.to_array_i(original);
-            for r in 0..rows_here {
-                let row = (by as usize) + r;
-                for c in 0..cols_here {
-                    let k = 4 * r + c;
-                    let (px, tri) = (
-                        &mut pixels[row][bx as usize + c],
-                        &mut triangles[row][bx as usize + c],
-                    );
-                    if hit.test(k) {
-                        px.write(Some(Receiver {
-                            position: Vec3::new(pos[0][k], pos[1][k], pos[2][k]),
-                            normal: Vec3::new(nrm[0][k], nrm[1][k], nrm[2][k]),
-                        }));
-                        tri.write(original[k] as u32);
-                        covered += 1;
-                    } else {
-                        px.write(None);
-                        tri.write(NO_TRIANGLE);
-                    }
-                }
-            }
-            s.scalar_ops(8 * (rows_here * cols_here) as u64);
-        }
-    }
-    covered
 }

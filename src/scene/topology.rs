@@ -1,23 +1,18 @@
-//! Edge adjacency, built once per scene and reused across frames, and the silhouette edges with
-//! respect to the light centre, found per frame.
+//! Per-scene topology, built once and reused across frames: edge adjacency, connected components,
+//! which components are solid, coincident duplicates, and the smooth patches (objects) of open
+//! components.
 //!
-//! Which triangles count as occluders matters for Eq. 4 (depth complexity plus signed edge terms,
-//! clamped): a ray through a closed object crosses it twice, so counting every triangle would darken
-//! penumbrae twofold. Triangles of a closed, consistently oriented component count only when they face
-//! the light; triangles of open components (leaves, planes, scans with holes) always count, each being
-//! a single layer. Silhouettes follow from the counted triangles: an edge whose counted neighbours lie
-//! on the same side of it as seen from the light, or that has one counted neighbour only (open,
-//! non-manifold, or the front-facing side of a closed object's outline). Edge terms of two counted
-//! triangles on opposite sides cancel exactly, so dropping those edges is an optimisation only:
-//! correctness never depends on the adjacency being found.
+//! Which triangles count as occluders matters for every algorithm that counts crossings (SISM's Eq. 4,
+//! the ray-traced additive model): a ray through a closed object crosses it twice, so counting every
+//! triangle would darken penumbrae twofold. Triangles of a closed, consistently oriented component
+//! count only when they face the light; triangles of open components (leaves, planes, scans with
+//! holes) always count, each being a single layer ([`SceneTopology::counts`]).
 
 use std::collections::HashMap;
 
 use glam::Vec3;
-use rayon::prelude::*;
 
-use super::occlusion::EdgeRecord;
-use crate::scene::Scene;
+use super::Scene;
 
 /// Largest share of a component's edges that may be open, non-manifold or inconsistently oriented for
 /// it to count as a solid (only its light-facing triangles occlude). Real meshes of solids have small
@@ -204,78 +199,6 @@ impl SceneTopology {
     pub fn counts(&self, t: usize, c: Vec3) -> bool {
         !self.duplicate[t] && (!self.closed[t] || faces_point(&self.triangles[t], c))
     }
-
-    /// The silhouette edges with respect to the light centre `c`, as kernel records relative to `c`.
-    pub fn silhouettes(&self, c: Vec3) -> Vec<EdgeRecord> {
-        self.silhouettes_by_object(c, false).0
-    }
-
-    /// [`Self::silhouettes`] and the object ([`Self::object`]) of each record. With `per_object`, an
-    /// edge between two objects gives each its own record even where their terms would cancel: the
-    /// independent composition evaluates objects apart, so nothing cancels across them.
-    pub fn silhouettes_by_object(&self, c: Vec3, per_object: bool) -> (Vec<EdgeRecord>, Vec<u32>) {
-        let per_chunk: Vec<(Vec<EdgeRecord>, Vec<u32>)> = self
-            .edges
-            .par_chunks(4096)
-            .map(|chunk| {
-                let mut out = Vec::new();
-                let mut objects = Vec::new();
-                for e in chunk {
-                    self.edge_records(e, c, per_object, &mut out, &mut objects);
-                }
-                (out, objects)
-            })
-            .collect();
-        let mut records = Vec::new();
-        let mut components = Vec::new();
-        for (r, comp) in per_chunk {
-            records.extend(r);
-            components.extend(comp);
-        }
-        (records, components)
-    }
-
-    fn edge_records(
-        &self,
-        e: &EdgeTopology,
-        c: Vec3,
-        per_object: bool,
-        out: &mut Vec<EdgeRecord>,
-        objects: &mut Vec<u32>,
-    ) {
-        let tris = &self.edge_triangles[e.first as usize..(e.first + e.count) as usize];
-        let counted: Vec<(Vec3, u32)> = tris
-            .iter()
-            .filter(|(t, _)| self.counts(*t as usize, c))
-            .map(|&(t, v3)| (v3, self.object[t as usize]))
-            .collect();
-        let rel = |p: Vec3| (p - c).to_array();
-        let mut push = |v3: &[Vec3], object: u32| {
-            out.push(EdgeRecord {
-                a: rel(e.a),
-                b: rel(e.b),
-                v3: [rel(v3[0]), rel(*v3.get(1).unwrap_or(&v3[0]))],
-                n_tri: v3.len() as u32,
-            });
-            objects.push(object);
-        };
-        match (e.count, counted.len()) {
-            (_, 0) => {}
-            (2, 2) if !per_object || counted[0].1 == counted[1].1 => {
-                // Same side of the edge as seen from the light: a fold, the terms add (silhouette).
-                // Opposite sides: the terms cancel, nothing to do.
-                let m = (e.a - c).cross(e.b - c);
-                if m.dot(counted[0].0 - c) * m.dot(counted[1].0 - c) >= 0.0 {
-                    push(&[counted[0].0, counted[1].0], counted[0].1);
-                }
-            }
-            (_, _) => {
-                for &(v3, object) in &counted {
-                    push(&[v3], object);
-                }
-            }
-        }
-    }
 }
 
 /// True when the front side (counter-clockwise) of `tri` faces the point `c`.
@@ -298,52 +221,5 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
         // The smaller root wins, so the forest does not depend on visiting order.
         let (lo, hi) = (ra.min(rb), ra.max(rb));
         parent[hi as usize] = lo;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::shapes;
-
-    fn scene_of(meshes: Vec<crate::scene::Mesh>) -> Scene {
-        Scene {
-            source: "test".into(),
-            meshes,
-            camera: crate::scene::Camera {
-                eye: [0.0, 0.0, 5.0],
-                look_at: [0.0; 3],
-                up: [0.0, 1.0, 0.0],
-                fov_y_deg: 45.0,
-                width: 8,
-                height: 8,
-            },
-            light: crate::scene::Light {
-                center: [0.0, 10.0, 0.0],
-                radius: 1.0,
-            },
-        }
-    }
-
-    #[test]
-    fn box_is_closed_and_has_a_four_edge_outline_from_above() {
-        let topo = SceneTopology::build(&scene_of(vec![shapes::axis_box("b", Vec3::ZERO, Vec3::ONE)]));
-        assert!(topo.closed.iter().all(|&c| c));
-        assert_eq!(topo.edges.len(), 18);
-        assert_eq!(topo.open_edges, 0);
-        // Light straight above: the outline is the top face's 4 edges.
-        let sil = topo.silhouettes(Vec3::new(0.5, 10.0, 0.5));
-        assert_eq!(sil.len(), 4, "{sil:?}");
-        assert!(sil.iter().all(|r| r.n_tri == 1));
-    }
-
-    #[test]
-    fn quad_is_open_and_its_border_is_the_silhouette() {
-        let q = shapes::quad("q", Vec3::ZERO, Vec3::X, Vec3::Z);
-        let topo = SceneTopology::build(&scene_of(vec![q]));
-        assert!(topo.closed.iter().all(|&c| !c));
-        // Both triangles count from either side; the diagonal cancels; 4 border edges remain.
-        assert_eq!(topo.silhouettes(Vec3::new(0.3, 5.0, 0.2)).len(), 4);
-        assert_eq!(topo.silhouettes(Vec3::new(0.3, -5.0, 0.2)).len(), 4);
     }
 }

@@ -1,241 +1,122 @@
-//! The machine model's commands: a SISM render timed on a machine (`sism render --machine`), a
-//! replay of saved records (`sism replay`) and a study over cores, threads and L2 sizes
-//! (`sism study`). The CLI only parses; the work is here.
+//! `sism study`: one frame counted once, re-timed on many machines; the table, `study.csv` and the
+//! plots `speedup.png` and `phases.png`.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use rayon::prelude::*;
+use anyhow::Context;
 
-use super::{simulate, MachineConfig, MachineReport};
-use crate::output::stats::StatsReport;
-use crate::render::RenderResult;
-use crate::scene::Scene;
-use crate::sism::{self, Composition, Exec, PhaseRecords};
+use sism::machine::sweep::{self, SweepAxes, SweepPoint};
+use sism::machine::{self, MachineConfig};
+use sism::render::{self, RenderOptions};
 
-/// A SISM frame rendered under the counting context, its records and the machine's report.
-pub struct MachineRender {
-    pub result: RenderResult,
-    pub records: Vec<PhaseRecords>,
-    pub report: MachineReport,
-    /// Host seconds of the counting render and of the simulation.
-    pub render_seconds: f64,
-    pub simulate_seconds: f64,
+use super::{
+    algorithm, algorithm_values, create_dir, load_scene, parse_list, print_stdout, write_file, ParamArgs,
+};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene file (TOML: see the README's "Scene files").
+    scene: PathBuf,
+    /// Core counts, comma-separated.
+    #[arg(long, default_value = "1,2,4,8,16,24,32,48,64")]
+    cores: String,
+    /// Hardware threads per core, comma-separated (default: the base machine's).
+    #[arg(long)]
+    threads: Option<String>,
+    /// L2 subset sizes per core in KB, comma-separated (default: the base machine's).
+    #[arg(long)]
+    l2_kb: Option<String>,
+    /// The base machine: a preset or a machine TOML file.
+    #[arg(long, default_value = "larrabee-24")]
+    machine: String,
+    /// Algorithm (one that runs on the simd kernels).
+    #[arg(long, default_value = "sism", value_parser = algorithm_values(true))]
+    algo: String,
+    #[command(flatten)]
+    params: ParamArgs,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "out/study")]
+    out: PathBuf,
+    /// Override the scene's image width, pixels.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Override the scene's image height, pixels.
+    #[arg(long)]
+    height: Option<u32>,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
 }
 
-/// Renders `scene` with SISM (`composition`) under [`Exec::Counting`], then times the records on
-/// `config`. The stats hold the usual SISM counters plus the machine's (`machine.*`).
-pub fn render_on_machine(scene: &Scene, composition: Composition, config: &MachineConfig) -> MachineRender {
-    let mut stats = StatsReport::default();
-    let algorithm = match composition {
-        Composition::Additive => "sism",
-        Composition::Independent => "sism-independent",
-        Composition::Sampled => "sism-sampled",
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let scene = load_scene(&a.scene, a.width, a.height)?;
+    let algo = algorithm(&a.algo)?;
+    let params = a.params.resolve(algo)?;
+    let base = MachineConfig::resolve(&a.machine).context("--machine")?;
+    let axes = SweepAxes {
+        cores: parse_list("--cores", &a.cores)?,
+        threads: a
+            .threads
+            .map(|s| parse_list("--threads", &s))
+            .transpose()?
+            .unwrap_or_default(),
+        l2_kb: a
+            .l2_kb
+            .map(|s| parse_list("--l2-kb", &s))
+            .transpose()?
+            .unwrap_or_default(),
     };
-    stats
-        .fact("scene", scene.source.display())
-        .fact("algorithm", algorithm)
-        .fact("width", scene.camera.width)
-        .fact("height", scene.camera.height)
-        .fact("host_threads", rayon::current_num_threads())
-        .fact("simd_backend", "counting");
-    stats
-        .stat(
-            "scene.triangles",
-            scene.triangle_count() as f64,
-            "triangles",
-            "triangles in the scene",
-        )
-        .stat(
-            "scene.light_radius",
-            scene.light.radius as f64,
-            "world units",
-            "light radius (0 = point light)",
-        );
-    let t0 = Instant::now();
-    let prepared = sism::PreparedScene::new(scene);
-    let options = sism::SismOptions {
-        composition,
-        exec: Exec::Counting,
-        ..Default::default()
-    };
-    let frame = super::counted_frame(scene, &prepared, &options);
-    let render_seconds = t0.elapsed().as_secs_f64();
-    sism::report(&frame.stats, &mut stats);
-    let t1 = Instant::now();
-    let report = simulate(&frame.records, config);
-    let simulate_seconds = t1.elapsed().as_secs_f64();
-    stats
-        .stat(
-            "time.counting_render",
-            render_seconds * 1e3,
-            "ms",
-            "SISM frame under the counting context, recording tasks (host wall time)",
-        )
-        .stat(
-            "time.machine_simulation",
-            simulate_seconds * 1e3,
-            "ms",
-            "replaying the records on the machine model (host wall time)",
-        );
-    report.add_to(&mut stats);
-    MachineRender {
-        result: RenderResult {
-            receivers: frame.receivers,
-            visibility: frame.visibility,
-            stats,
+    let configs = sweep::configurations(&base, &axes).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let out = create_dir(&a.out)?;
+    let frame = render::render(
+        &scene,
+        algo,
+        &params,
+        &RenderOptions {
+            exec: sism::exec::Exec::Counting,
+            progress: !a.quiet,
         },
-        records: frame.records,
-        report,
-        render_seconds,
-        simulate_seconds,
-    }
-}
-
-/// Re-times saved records on `config`; writes `stats.txt`, `stats.json` and `machine.toml` into
-/// `out`.
-pub fn replay(records_path: &Path, config: &MachineConfig, out: &Path) -> anyhow::Result<MachineReport> {
-    let records = super::load_records(records_path)?;
-    let report = simulate(&records, config);
-    std::fs::create_dir_all(out)
-        .map_err(|e| anyhow::anyhow!("cannot create output folder {}: {e}", out.display()))?;
-    let mut stats = StatsReport::default();
-    stats.fact("records", records_path.display());
-    report.add_to(&mut stats);
-    stats.write(out)?;
-    super::write_config(out, config)?;
-    Ok(report)
-}
-
-/// Settings of `sism study`.
-#[derive(Clone, Debug)]
-pub struct StudyOptions {
-    pub out: PathBuf,
-    /// The machine every point starts from (cores, threads and L2 then vary).
-    pub base: MachineConfig,
-    pub cores: Vec<u32>,
-    /// Threads per core to try (empty: the base's).
-    pub threads: Vec<u32>,
-    /// L2 subset sizes to try, KB (empty: the base's).
-    pub l2_kb: Vec<u32>,
-    pub composition: Composition,
-    pub progress: bool,
-}
-
-/// One simulated configuration of a study.
-#[derive(Clone, Debug)]
-pub struct StudyPoint {
-    pub cores: u32,
-    pub threads: u32,
-    pub l2_kb: u32,
-    pub report: MachineReport,
-}
-
-/// Parses a comma-separated list of positive integers (`--cores 1,2,4`).
-pub fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<u32>> {
-    s.split(',')
-        .filter(|t| !t.trim().is_empty())
-        .map(|t| {
-            let v: u32 = t
-                .trim()
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{flag}: `{}` is not a positive integer", t.trim()))?;
-            anyhow::ensure!(v > 0, "{flag}: values must be at least 1");
-            Ok(v)
-        })
-        .collect()
-}
-
-/// Renders `scene` once under the counting context, then simulates every (threads, L2, cores)
-/// combination in parallel on the host; writes `study.csv`, `speedup.png`, `phases.png`,
-/// `records.bin` and `machine.toml` (the base) into `options.out`.
-pub fn study(scene: &Scene, options: &StudyOptions) -> anyhow::Result<Vec<StudyPoint>> {
-    anyhow::ensure!(!options.cores.is_empty(), "--cores: give at least one core count");
-    std::fs::create_dir_all(&options.out)
-        .map_err(|e| anyhow::anyhow!("cannot create output folder {}: {e}", options.out.display()))?;
-    let prepared = sism::PreparedScene::new(scene);
-    let sism_options = sism::SismOptions {
-        composition: options.composition,
-        exec: Exec::Counting,
-        ..Default::default()
-    };
-    let frame = super::counted_frame(scene, &prepared, &sism_options);
-    super::save_records(&options.out.join("records.bin"), &frame.records)?;
-    super::write_config(&options.out, &options.base)?;
-
-    let threads = if options.threads.is_empty() {
-        vec![options.base.threads_per_core]
-    } else {
-        options.threads.clone()
-    };
-    let l2s = if options.l2_kb.is_empty() {
-        vec![options.base.l2_kb]
-    } else {
-        options.l2_kb.clone()
-    };
-    let mut configs = Vec::new();
-    for &t in &threads {
-        for &l2 in &l2s {
-            for &c in &options.cores {
-                let mut m = options.base.clone();
-                m.cores = c;
-                m.threads_per_core = t;
-                m.l2_kb = l2;
-                m.name = format!("{}-c{c}-t{t}-l2{l2}", options.base.name);
-                m.validate()
-                    .map_err(|(k, msg)| anyhow::anyhow!("study point {}: `{k}` {msg}", m.name))?;
-                configs.push(m);
-            }
-        }
-    }
-    let bar = crate::progress::bar(configs.len() as u64, "simulating", options.progress);
-    let points: Vec<StudyPoint> = configs
-        .par_iter()
-        .map(|m| {
-            let report = simulate(&frame.records, m);
-            bar.inc(1);
-            StudyPoint {
-                cores: m.cores,
-                threads: m.threads_per_core,
-                l2_kb: m.l2_kb,
-                report,
-            }
-        })
-        .collect();
+    );
+    machine::save_records(&out.join("records.bin"), &frame.records)?;
+    machine::write_config(&out, &base)?;
+    let bar = sism::progress::bar(configs.len() as u64, "simulating", !a.quiet);
+    let points = sweep::run(&frame.records, &configs, || bar.inc(1));
     bar.finish_and_clear();
-    write_csv(&options.out.join("study.csv"), &points)?;
-    plots::speedup(&options.out.join("speedup.png"), scene, &points)?;
+    write_csv(&out.join("study.csv"), &points)?;
+    plots::speedup(&out.join("speedup.png"), &scene, &points)?;
     let table_point = points
         .iter()
-        .find(|p| {
-            p.cores == options.base.cores
-                && p.threads == options.base.threads_per_core
-                && p.l2_kb == options.base.l2_kb
-        })
-        .or_else(|| points.iter().find(|p| p.cores == options.base.cores))
-        .unwrap_or_else(|| points.last().expect("at least one point"));
-    plots::phases(&options.out.join("phases.png"), scene, table_point)?;
-    Ok(points)
+        .find(|p| p.cores == base.cores && p.threads == base.threads_per_core && p.l2_kb == base.l2_kb)
+        .or_else(|| points.iter().find(|p| p.cores == base.cores))
+        .or(points.last())
+        .context("the sweep has no point")?;
+    plots::phases(&out.join("phases.png"), &scene, table_point)?;
+    if !a.quiet {
+        let mut s = String::from("cores threads l2_kb   frame_ms  speedup\n");
+        for p in &points {
+            s += &format!(
+                "{:>5} {:>7} {:>5} {:>10.3} {:>8.2}\n",
+                p.cores,
+                p.threads,
+                p.l2_kb,
+                p.report.frame.ms,
+                sweep::speedup(&points, p)
+            );
+        }
+        print_stdout(s.trim_end())?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
 }
 
-/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
-pub fn speedup(points: &[StudyPoint], p: &StudyPoint) -> f64 {
-    let base = points
-        .iter()
-        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb)
-        .min_by_key(|q| q.cores)
-        .expect("p itself");
-    base.report.frame.cycles as f64 / p.report.frame.cycles.max(1) as f64
-}
-
-/// `study.csv`: one row per configuration and phase (plus `frame`).
-pub fn write_csv(path: &Path, points: &[StudyPoint]) -> anyhow::Result<()> {
+/// `study.csv`: one row per configuration and step (plus `frame`).
+fn write_csv(path: &Path, points: &[SweepPoint]) -> anyhow::Result<()> {
     let mut s = String::from(
         "cores,threads,l2_kb,phase,tasks,cycles,ms,stack_issue,stack_memory,stack_atomics_sync,\
          stack_imbalance_idle,lane_utilisation,l1_miss_rate,l2_miss_rate,bytes_dram,frame_speedup\n",
     );
     for p in points {
-        let sp = speedup(points, p);
+        let sp = sweep::speedup(points, p);
         for ph in p.report.phases.iter().chain(std::iter::once(&p.report.frame)) {
             s += &format!(
                 "{},{},{},{},{},{},{:.6},{},{},{},{},{:.6},{:.6},{:.6},{},{:.6}\n",
@@ -258,7 +139,7 @@ pub fn write_csv(path: &Path, points: &[StudyPoint]) -> anyhow::Result<()> {
             );
         }
     }
-    std::fs::write(path, s).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    write_file(path, &s)
 }
 
 mod plots {
@@ -266,10 +147,10 @@ mod plots {
 
     use plotters::prelude::*;
 
-    use super::StudyPoint;
-    use crate::scene::Scene;
+    use sism::machine::sweep::{speedup as point_speedup, SweepPoint as StudyPoint};
+    use sism::scene::Scene;
 
-    use crate::output::plot::{canvas, register_fonts, save, PALETTE, PLOT_SIZE as SIZE};
+    use crate::cli::plot::{canvas, register_fonts, save, PALETTE, PLOT_SIZE as SIZE};
 
     fn scene_name(scene: &Scene) -> String {
         scene
@@ -288,14 +169,14 @@ mod plots {
         let c1 = points.iter().map(|p| p.cores).max().unwrap_or(1) as f64;
         let ymax = points
             .iter()
-            .map(|p| super::speedup(points, p))
+            .map(|p| point_speedup(points, p))
             .fold(c1 / c0, f64::max)
             * 1.05;
         type Series = ((u32, u32), Vec<(f64, f64)>);
         let mut series: Vec<Series> = Vec::new();
         for p in points {
             let key = (p.threads, p.l2_kb);
-            let pt = (p.cores as f64, super::speedup(points, p));
+            let pt = (p.cores as f64, point_speedup(points, p));
             match series.iter_mut().find(|(k, _)| *k == key) {
                 Some((_, v)) => v.push(pt),
                 None => series.push((key, vec![pt])),
@@ -371,8 +252,8 @@ mod plots {
         register_fonts();
         let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("cannot draw {}: {e}", path.display());
         let r = &point.report;
-        let n = r.phases.len().max(1);
-        let ymax = r.phases.iter().map(|p| p.ms).fold(0.0, f64::max).max(1e-6) * 1.2;
+        let n = r.groups.len().max(1);
+        let ymax = r.groups.iter().map(|p| p.ms).fold(0.0, f64::max).max(1e-6) * 1.2;
         let mut rgb = canvas();
         {
             let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
@@ -387,7 +268,7 @@ mod plots {
                 r.config.clock_ghz,
                 r.frame.ms
             );
-            let names: Vec<String> = r.phases.iter().map(|p| p.phase.clone()).collect();
+            let names: Vec<String> = r.groups.iter().map(|p| p.phase.clone()).collect();
             let mut chart = ChartBuilder::on(&root)
                 .caption(title, ("sans-serif", 22))
                 .margin(20)
@@ -421,7 +302,7 @@ mod plots {
                 let (cr, cg, cb) = PALETTE[k];
                 let colour = RGBColor(cr, cg, cb);
                 let bars: Vec<Rectangle<(f64, f64)>> = r
-                    .phases
+                    .groups
                     .iter()
                     .enumerate()
                     .map(|(i, p)| {
@@ -444,7 +325,7 @@ mod plots {
                     .legend(move |(x, y)| Rectangle::new([(x - 8, y - 6), (x + 8, y + 6)], colour.filled()));
             }
             chart
-                .draw_series(r.phases.iter().enumerate().map(|(i, p)| {
+                .draw_series(r.groups.iter().enumerate().map(|(i, p)| {
                     Text::new(
                         format!(
                             "{:.2} ms ({:.0}%)",

@@ -13,11 +13,34 @@ use std::ops::Range;
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{as_i32_mut, Kernel, Simd, TaskRecord};
-
-use super::{run_task, Exec};
+use sism_simd::{as_i32_mut, Kernel, Simd};
 
 use super::light_view::LightFace;
+use crate::exec::{task_kind, Phase};
+use crate::stats::{percentiles, Dist};
+
+crate::declare_stats! {
+    /// Counters of the grid.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct GridStats {
+        /// Samples in the grid (receivers facing the light).
+        pub samples: u64 => ("grid.samples", "samples", "samples in the light-space grid"),
+        /// Light views: 1 frustum or 6 cube faces.
+        pub light_faces: u64 => ("grid.light_faces", "faces", "light views: 1 frustum or 6 cube faces"),
+        /// Image-plane cells over all faces.
+        pub columns: u64 => ("grid.columns", "columns", "image-plane cells over all faces"),
+        /// 3D cells (columns × depth slices, whole bins).
+        pub cells: u64 => ("grid.cells", "cells", "3D cells (columns x depth slices, whole bins)"),
+        /// Cells holding at least one sample.
+        pub occupied_cells: u64 => ("grid.occupied_cells", "cells", "cells holding at least one sample"),
+        /// Light-view bins (the tasks of the umbra and penumbra stages).
+        pub bins: u64 => ("grid.bins", "bins", "light-view bins (tasks)"),
+        /// Bins holding samples.
+        pub occupied_bins: u64 => ("grid.occupied_bins", "bins", "bins holding samples; empty bins cost nothing"),
+        /// Samples per occupied cell.
+        pub samples_per_cell: Dist => ("dist.samples_per_cell", "samples", "samples per occupied grid cell (distribution)"),
+    }
+}
 
 /// Tuning of the grid resolution.
 #[derive(Clone, Copy, Debug)]
@@ -89,6 +112,28 @@ impl FaceGrid {
     pub fn slice_of(&self, z: f32, slices: u32) -> u32 {
         let s = ((z / self.z_min).max(1.0).ln() * self.slice_scale) as i64;
         s.clamp(0, slices as i64 - 1) as u32
+    }
+
+    /// Near-plane distance of the face for clipping occluders, world units: a tiny fraction of the
+    /// nearest sample's depth (geometry nearer than that to the light centre is inside the light).
+    #[inline]
+    pub fn near_plane(&self) -> f32 {
+        self.z_min * 1e-4
+    }
+
+    /// Bins of this face overlapped by the column range `[c0, c1)`, as global bin indices.
+    #[inline]
+    pub fn bins_of_columns(
+        &self,
+        bin_columns: u32,
+        c0: UVec2,
+        c1: UVec2,
+    ) -> impl Iterator<Item = usize> + '_ {
+        let b0 = c0 / bin_columns;
+        let b1 = (c1 - UVec2::ONE) / bin_columns;
+        (b0.y..=b1.y).flat_map(move |by| {
+            (b0.x..=b1.x).map(move |bx| (self.first_bin + by * self.bins.x + bx) as usize)
+        })
     }
 
     /// Column range (inclusive lower, exclusive upper) covered by the image-plane box `[lo, hi]`,
@@ -183,49 +228,111 @@ impl Grid {
     pub fn occupied_bins(&self) -> usize {
         self.bins.iter().filter(|b| !b.samples.is_empty()).count()
     }
+
+    /// Sample range of row `row` of the columns `[c0, c1)` of bin `bin`: from the first column's slice
+    /// `first_slice` to the last column's end. Columns of one bin row are contiguous in memory, so this
+    /// is one range; the nearer slices of the columns in between are included (work for lanes, never
+    /// a missed sample).
+    #[inline]
+    pub fn row_span(&self, bin: usize, c0: UVec2, c1: UVec2, row: u32, first_slice: u32) -> (usize, usize) {
+        let start = self.column_samples(bin, UVec2::new(c0.x, row), first_slice).start;
+        let end = self.column_samples(bin, UVec2::new(c1.x - 1, row), 0).end;
+        (start, end)
+    }
+
+    /// Disjoint mutable pieces of `data` (one entry per sorted sample) for the sample ranges `ranges`
+    /// (ascending, non-overlapping; gaps are skipped).
+    pub fn split_samples<T>(
+        data: &mut [T],
+        ranges: impl Iterator<Item = std::ops::Range<usize>>,
+    ) -> Vec<&mut [T]> {
+        let mut rest = data;
+        let mut at = 0;
+        let mut out = Vec::new();
+        for r in ranges {
+            let (_, tail) = rest.split_at_mut(r.start - at);
+            let (head, tail) = tail.split_at_mut(r.len());
+            out.push(head);
+            rest = tail;
+            at = r.end;
+        }
+        out
+    }
+
+    /// Each bin's piece of `data` (one entry per sorted sample), in bin order.
+    pub fn split_by_bins<'a, T>(&self, data: &'a mut [T]) -> Vec<&'a mut [T]> {
+        Self::split_samples(
+            data,
+            self.bins
+                .iter()
+                .map(|b| b.samples.start as usize..b.samples.end as usize),
+        )
+    }
+
+    /// The grid's counters.
+    pub fn stats(&self) -> GridStats {
+        GridStats {
+            samples: self.samples.pixel.len() as u64,
+            light_faces: self.faces.len() as u64,
+            columns: self
+                .faces
+                .iter()
+                .map(|g| (g.columns.x * g.columns.y) as u64)
+                .sum(),
+            cells: (self.cell_start.len() - 1) as u64,
+            occupied_cells: self.occupied_cells() as u64,
+            bins: self.bins.len() as u64,
+            occupied_bins: self.occupied_bins() as u64,
+            samples_per_cell: percentiles(
+                self.cell_start
+                    .windows(2)
+                    .map(|w| (w[1] - w[0]) as u64)
+                    .filter(|&n| n > 0),
+            ),
+        }
+    }
 }
 
 /// Samples classified per chunk; the unit of the first counting-sort pass. Large enough that the
 /// per-chunk bin histograms and their prefix sum (bins x chunks) stay small.
 const CHUNK: usize = 65_536;
 
-/// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it.
-pub fn build(
-    faces: &[LightFace],
-    samples: &[SampleIn],
-    params: &GridParams,
-    exec: Exec,
-) -> (Grid, Vec<TaskRecord>) {
+/// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it, as the
+/// steps of `phase`: `face_bounds` (per face the samples' image bounds and depth range), `classify`
+/// (bin and cell of every sample, per-chunk bin histograms), `scatter` (sample indices to their bins'
+/// ranges), `cell_sort` (per bin, a counting sort by cell), `gather` (the sorted structure of arrays)
+/// and `bins` (each bin's descriptor).
+pub fn build(phase: &mut Phase, faces: &[LightFace], samples: &[SampleIn], params: &GridParams) -> Grid {
     debug_assert!(
         samples.windows(2).all(|w| w[0].face <= w[1].face),
         "samples grouped by face"
     );
     let b = params.bin_columns;
+    // Each face's samples (they are grouped by face).
+    let mut ranges = Vec::with_capacity(faces.len());
+    let mut start = 0usize;
+    for f in 0..faces.len() {
+        let end = start + samples[start..].partition_point(|s| s.face as usize == f);
+        ranges.push(start..end);
+        start = end;
+    }
+    let bounds = phase.run_par(
+        "face_bounds",
+        ranges.par_iter().map(|r| FaceBounds {
+            samples: &samples[r.clone()],
+        }),
+    );
     // Per-face resolution from the face's sample count and image bounds.
     let mut face_grids = Vec::with_capacity(faces.len());
     let mut first_bin = 0u32;
-    let mut start = 0usize;
-    for (f, face) in faces.iter().enumerate() {
-        let end = start
-            + samples[start..]
-                .iter()
-                .take_while(|s| s.face as usize == f)
-                .count();
-        let mine = &samples[start..end];
-        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
-        let (mut z_min, mut z_max) = (f32::INFINITY, 0.0f32);
-        for s in mine {
-            lo = lo.min(s.uv);
-            hi = hi.max(s.uv);
-            z_min = z_min.min(s.depth);
-            z_max = z_max.max(s.depth);
-        }
-        let (columns, uv_min, cell_size) = if mine.is_empty() {
+    for ((face, range), &(lo, hi, z_min, z_max)) in faces.iter().zip(&ranges).zip(&bounds) {
+        let count = range.len();
+        let (columns, uv_min, cell_size) = if count == 0 {
             (UVec2::ZERO, Vec2::ZERO, Vec2::ONE)
         } else {
             // Pad the bounds by a hair so the largest sample lands inside the last column.
             let extent = (hi - lo).max(Vec2::splat(1e-6)) * (1.0 + 1e-5);
-            let total = (mine.len() as f32 / params.samples_per_column).max(1.0);
+            let total = (count as f32 / params.samples_per_column).max(1.0);
             let aspect = extent.x / extent.y;
             let gu = (total * aspect).sqrt().ceil().clamp(1.0, 8192.0);
             let gv = (total / gu).ceil().clamp(1.0, 8192.0);
@@ -233,7 +340,7 @@ pub fn build(
             (columns, lo, extent / columns.as_vec2())
         };
         let bins = UVec2::new(columns.x.div_ceil(b), columns.y.div_ceil(b));
-        let z_min = if mine.is_empty() { 1.0 } else { z_min };
+        let z_min = if count == 0 { 1.0 } else { z_min };
         let z_max = z_max.max(z_min);
         let ratio_ln = (z_max / z_min).ln();
         face_grids.push(FaceGrid {
@@ -250,36 +357,30 @@ pub fn build(
             } else {
                 0.0
             },
-            samples: mine.len() as u32,
+            samples: count as u32,
         });
         first_bin += bins.x * bins.y;
-        start = end;
     }
     let n_bins = first_bin as usize;
 
     // Pass 1 (parallel over chunks): bin and local cell of every sample, and per-chunk bin counts.
     let mut bin_of = vec![0u32; samples.len()];
     let mut cell_of = vec![0u32; samples.len()];
-    let (chunk_counts, mut records): (Vec<Vec<u32>>, Vec<Vec<TaskRecord>>) = bin_of
-        .par_chunks_mut(CHUNK)
-        .zip(cell_of.par_chunks_mut(CHUNK))
-        .zip(samples.par_chunks(CHUNK))
-        .map(|((bins_out, cells_out), chunk)| {
-            let mut counts = vec![0u32; n_bins];
-            let ((), rec) = run_task(
-                exec,
-                Classify {
-                    samples: chunk,
-                    faces: &face_grids,
-                    params,
-                    bin_out: bins_out,
-                    cell_out: cells_out,
-                    counts: &mut counts,
-                },
-            );
-            (counts, rec)
-        })
-        .unzip();
+    let chunk_counts: Vec<Vec<u32>> = phase.run_par(
+        "classify",
+        bin_of
+            .par_chunks_mut(CHUNK)
+            .zip(cell_of.par_chunks_mut(CHUNK))
+            .zip(samples.par_chunks(CHUNK))
+            .map(|((bins_out, cells_out), chunk)| Classify {
+                samples: chunk,
+                faces: &face_grids,
+                params,
+                bin_out: bins_out,
+                cell_out: cells_out,
+                counts: vec![0u32; n_bins],
+            }),
+    );
 
     // Prefix sum, bin-major then chunk: each chunk's first write position in each bin.
     let mut bin_start = vec![0u32; n_bins + 1];
@@ -295,12 +396,13 @@ pub fn build(
     bin_start[n_bins] = running;
 
     // Pass 2: scatter sample indices to their bin's range (vector fetch-add on the write positions).
+    // The chunks share the output, so the host runs them one after another.
     let mut by_bin = vec![0u32; samples.len()];
     for (k, pos) in write_pos.iter_mut().enumerate() {
         let lo = k * CHUNK;
         let hi = (lo + CHUNK).min(samples.len());
-        let ((), rec) = run_task(
-            exec,
+        phase.run(
+            "scatter",
             ScatterToBins {
                 first_index: lo as u32,
                 bin_of: &bin_of[lo..hi],
@@ -308,7 +410,6 @@ pub fn build(
                 out: &mut by_bin,
             },
         );
-        records.push(rec);
     }
 
     // Pass 3 (parallel over bins): counting sort of each bin's samples by cell.
@@ -323,14 +424,20 @@ pub fn build(
             bin_slices.push(head);
             rest = tail;
         }
-        bin_slices
-            .into_par_iter()
-            .zip(cell_start[..n_bins * cells_per_bin].par_chunks_mut(cells_per_bin))
-            .enumerate()
-            .for_each(|(bin, (out, starts))| {
-                let range = bin_start[bin] as usize..bin_start[bin + 1] as usize;
-                sort_bin_by_cell(&by_bin[range], &cell_of, bin_start[bin], starts, out);
-            });
+        phase.run_par(
+            "cell_sort",
+            bin_slices
+                .into_par_iter()
+                .zip(cell_start[..n_bins * cells_per_bin].par_chunks_mut(cells_per_bin))
+                .enumerate()
+                .map(|(bin, (out, starts))| CellSort {
+                    members: &by_bin[bin_start[bin] as usize..bin_start[bin + 1] as usize],
+                    cell_of: &cell_of,
+                    bin_first: bin_start[bin],
+                    starts,
+                    out,
+                }),
+        );
     }
     cell_start[n_bins * cells_per_bin] = samples.len() as u32;
 
@@ -348,7 +455,6 @@ pub fn build(
         cos_theta: vec![0.0; n],
     };
     {
-        const C: usize = 16_384;
         let SortedSamples {
             x,
             y,
@@ -359,78 +465,218 @@ pub fn build(
             pixel,
             cos_theta,
         } = &mut sorted;
-        x.par_chunks_mut(C)
-            .zip(y.par_chunks_mut(C))
-            .zip(z.par_chunks_mut(C))
-            .zip(u.par_chunks_mut(C))
-            .zip(v.par_chunks_mut(C))
-            .zip(depth.par_chunks_mut(C))
-            .zip(pixel.par_chunks_mut(C))
-            .zip(cos_theta.par_chunks_mut(C))
-            .zip(sorted_index.par_chunks(C))
-            .for_each(|((((((((x, y), z), u), v), depth), pixel), cos_theta), index)| {
-                for (k, &i) in index.iter().enumerate() {
-                    let s = &samples[i as usize];
-                    (x[k], y[k], z[k]) = (s.q.x, s.q.y, s.q.z);
-                    (u[k], v[k], depth[k]) = (s.uv.x, s.uv.y, s.depth);
-                    (pixel[k], cos_theta[k]) = (s.pixel, s.cos_theta);
-                }
-            });
+        phase.run_par(
+            "gather",
+            x.par_chunks_mut(GATHER_CHUNK)
+                .zip(y.par_chunks_mut(GATHER_CHUNK))
+                .zip(z.par_chunks_mut(GATHER_CHUNK))
+                .zip(u.par_chunks_mut(GATHER_CHUNK))
+                .zip(v.par_chunks_mut(GATHER_CHUNK))
+                .zip(depth.par_chunks_mut(GATHER_CHUNK))
+                .zip(pixel.par_chunks_mut(GATHER_CHUNK))
+                .zip(cos_theta.par_chunks_mut(GATHER_CHUNK))
+                .zip(sorted_index.par_chunks(GATHER_CHUNK))
+                .map(
+                    |((((((((x, y), z), u), v), depth), pixel), cos_theta), index)| Gather {
+                        samples,
+                        index,
+                        out: [x, y, z, u, v, depth, cos_theta],
+                        pixel,
+                    },
+                ),
+        );
     }
     drop(sorted_index);
 
     // Bin descriptors with their sample ranges and depth bounds.
-    let mut bins = Vec::with_capacity(n_bins);
+    let mut coords = Vec::with_capacity(n_bins);
     for (f, g) in face_grids.iter().enumerate() {
         for by in 0..g.bins.y {
             for bx in 0..g.bins.x {
-                let index = bins.len();
-                let range = bin_start[index]..bin_start[index + 1];
-                let depths = &sorted.depth[range.start as usize..range.end as usize];
-                let (z_min, z_max) = depths
-                    .iter()
-                    .fold((f32::INFINITY, 0.0f32), |(lo, hi), &z| (lo.min(z), hi.max(z)));
-                let column0 = UVec2::new(bx * b, by * b);
-                bins.push(Bin {
-                    face: f as u32,
-                    column0,
-                    uv_min: g.uv_min + column0.as_vec2() * g.cell_size,
-                    uv_max: g.uv_min + (column0 + UVec2::splat(b)).as_vec2() * g.cell_size,
-                    samples: range,
-                    z_min: if depths.is_empty() { 0.0 } else { z_min },
-                    z_max,
-                });
+                coords.push((f as u32, UVec2::new(bx * b, by * b)));
             }
         }
     }
-    let grid = Grid {
+    let bins: Vec<Bin> = phase
+        .run_par(
+            "bins",
+            coords
+                .par_chunks(BINS_CHUNK)
+                .enumerate()
+                .map(|(k, coords)| BinDescriptors {
+                    first: k * BINS_CHUNK,
+                    coords,
+                    faces: &face_grids,
+                    bin_start: &bin_start,
+                    depth: &sorted.depth,
+                    bin_columns: b,
+                }),
+        )
+        .into_iter()
+        .flatten()
+        .collect();
+    Grid {
         params: *params,
         faces: face_grids,
         bins,
         cell_start,
         samples: sorted,
-    };
-    (grid, records.into_iter().flatten().collect())
+    }
 }
 
-/// Counting sort of one bin's samples (`members`, global indices) by local cell. Writes the cells'
-/// global start offsets into `starts` (one per cell of the bin) and the sorted indices into `out`.
-fn sort_bin_by_cell(members: &[u32], cell_of: &[u32], bin_first: u32, starts: &mut [u32], out: &mut [u32]) {
-    let mut counts = vec![0u32; starts.len()];
-    for &i in members {
-        counts[cell_of[i as usize] as usize] += 1;
+/// Samples per `gather` task.
+const GATHER_CHUNK: usize = 16_384;
+
+/// Bins per `bins` task.
+const BINS_CHUNK: usize = 1024;
+
+/// Step `face_bounds`: a face's samples' image-plane bounds and depth range `(lo, hi, z_min, z_max)`.
+struct FaceBounds<'a> {
+    samples: &'a [SampleIn],
+}
+
+impl Kernel for FaceBounds<'_> {
+    type Output = (Vec2, Vec2, f32, f32);
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> (Vec2, Vec2, f32, f32) {
+        s.begin_task(task_kind::GRID_BINS);
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let (mut z_min, mut z_max) = (f32::INFINITY, 0.0f32);
+        for smp in self.samples {
+            lo = lo.min(smp.uv);
+            hi = hi.max(smp.uv);
+            z_min = z_min.min(smp.depth);
+            z_max = z_max.max(smp.depth);
+        }
+        s.scalar_read(self.samples);
+        s.scalar_ops(8 * self.samples.len() as u64);
+        s.end_task();
+        (lo, hi, z_min, z_max)
     }
-    let mut running = 0u32;
-    for (s, c) in starts.iter_mut().zip(counts.iter_mut()) {
-        *s = bin_first + running;
-        let n = *c;
-        *c = running;
-        running += n;
+}
+
+/// Step `cell_sort`: counting sort of one bin's samples (`members`, global indices) by local cell.
+/// Writes the cells' global start offsets into `starts` (one per cell of the bin) and the sorted
+/// indices into `out`.
+struct CellSort<'a> {
+    members: &'a [u32],
+    cell_of: &'a [u32],
+    bin_first: u32,
+    starts: &'a mut [u32],
+    out: &'a mut [u32],
+}
+
+impl Kernel for CellSort<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::GRID_CELL_SORT);
+        let mut counts = vec![0u32; self.starts.len()];
+        for &i in self.members {
+            counts[self.cell_of[i as usize] as usize] += 1;
+        }
+        let mut running = 0u32;
+        for (start, c) in self.starts.iter_mut().zip(counts.iter_mut()) {
+            *start = self.bin_first + running;
+            let n = *c;
+            *c = running;
+            running += n;
+        }
+        for &i in self.members {
+            let c = &mut counts[self.cell_of[i as usize] as usize];
+            self.out[*c as usize] = i;
+            *c += 1;
+        }
+        // Memory: the members twice, their cells gathered twice, the cell starts, the output.
+        s.scalar_read(self.members);
+        for &i in self.members {
+            s.scalar_read(&self.cell_of[i as usize..i as usize + 1]);
+        }
+        s.scalar_write(self.starts);
+        s.scalar_write(self.out);
+        // Per member: two cell loads and two increments, the store (~8); per cell the prefix (~4).
+        s.scalar_ops(8 * self.members.len() as u64 + 4 * self.starts.len() as u64);
+        s.end_task();
     }
-    for &i in members {
-        let c = &mut counts[cell_of[i as usize] as usize];
-        out[*c as usize] = i;
-        *c += 1;
+}
+
+/// Step `gather`: a chunk of the sorted structure of arrays from the samples, by sorted index.
+struct Gather<'a> {
+    samples: &'a [SampleIn],
+    index: &'a [u32],
+    /// x, y, z, u, v, depth, cos θ.
+    out: [&'a mut [f32]; 7],
+    pixel: &'a mut [u32],
+}
+
+impl Kernel for Gather<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::GRID_GATHER);
+        let [x, y, z, u, v, depth, cos_theta] = self.out;
+        for (k, &i) in self.index.iter().enumerate() {
+            let smp = &self.samples[i as usize];
+            (x[k], y[k], z[k]) = (smp.q.x, smp.q.y, smp.q.z);
+            (u[k], v[k], depth[k]) = (smp.uv.x, smp.uv.y, smp.depth);
+            (self.pixel[k], cos_theta[k]) = (smp.pixel, smp.cos_theta);
+            s.scalar_read(std::slice::from_ref(smp));
+        }
+        s.scalar_read(self.index);
+        for out in [&*x, &*y, &*z, &*u, &*v, &*depth, &*cos_theta] {
+            s.scalar_write(out);
+        }
+        s.scalar_write(self.pixel);
+        // Per sample: the index, eight loads and eight stores (~18).
+        s.scalar_ops(18 * self.index.len() as u64);
+        s.end_task();
+    }
+}
+
+/// Step `bins`: the descriptors of a chunk of bins (global indices from `first`).
+struct BinDescriptors<'a> {
+    first: usize,
+    /// Face and first column of each bin.
+    coords: &'a [(u32, UVec2)],
+    faces: &'a [FaceGrid],
+    bin_start: &'a [u32],
+    /// Sorted sample depths.
+    depth: &'a [f32],
+    bin_columns: u32,
+}
+
+impl Kernel for BinDescriptors<'_> {
+    type Output = Vec<Bin>;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> Vec<Bin> {
+        s.begin_task(task_kind::GRID_BINS);
+        let mut out = Vec::with_capacity(self.coords.len());
+        let mut samples = 0usize;
+        for (k, &(f, column0)) in self.coords.iter().enumerate() {
+            let index = self.first + k;
+            let g = &self.faces[f as usize];
+            let range = self.bin_start[index]..self.bin_start[index + 1];
+            let depths = &self.depth[range.start as usize..range.end as usize];
+            let (z_min, z_max) = depths
+                .iter()
+                .fold((f32::INFINITY, 0.0f32), |(lo, hi), &z| (lo.min(z), hi.max(z)));
+            s.scalar_read(depths);
+            samples += depths.len();
+            out.push(Bin {
+                face: f,
+                column0,
+                uv_min: g.uv_min + column0.as_vec2() * g.cell_size,
+                uv_max: g.uv_min + (column0 + UVec2::splat(self.bin_columns)).as_vec2() * g.cell_size,
+                samples: range,
+                z_min: if depths.is_empty() { 0.0 } else { z_min },
+                z_max,
+            });
+        }
+        // Per bin the descriptor (~16); per sample the min and max (~3).
+        s.scalar_ops(16 * self.coords.len() as u64 + 3 * samples as u64);
+        s.scalar_write(&out);
+        s.end_task();
+        out
     }
 }
 
@@ -441,16 +687,19 @@ struct Classify<'a> {
     params: &'a GridParams,
     bin_out: &'a mut [u32],
     cell_out: &'a mut [u32],
-    counts: &'a mut [u32],
+    /// The chunk's bin histogram (zeros on entry, one per bin).
+    counts: Vec<u32>,
 }
 
 impl Kernel for Classify<'_> {
-    type Output = ();
+    /// The chunk's bin histogram.
+    type Output = Vec<u32>;
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) {
+    fn run<S: Simd>(mut self, s: S) -> Vec<u32> {
+        s.begin_task(task_kind::GRID_CLASSIFY);
         let b = self.params.bin_columns as i32;
         let slices = self.params.slices;
-        let counts = as_i32_mut(self.counts);
+        let counts = as_i32_mut(&mut self.counts);
         let one = s.splat_i(1);
         for (k, chunk) in self.samples.chunks(16).enumerate() {
             // Samples of a chunk may straddle a face boundary: take the face per lane (scalar setup of
@@ -511,6 +760,8 @@ impl Kernel for Classify<'_> {
             s.mask_store_i(as_i32_mut(&mut self.cell_out[at..]), m, cell);
             s.fetch_add_i(counts, m, bin, one);
         }
+        s.end_task();
+        self.counts
     }
 }
 
@@ -535,6 +786,9 @@ impl Kernel for ScatterToBins<'_> {
     type Output = ();
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::GRID_SCATTER);
+        // The chunk's column of the bins x chunks prefix sum, before the scatter.
+        s.scalar_ops(3 * self.write_pos.len() as u64);
         let pos = as_i32_mut(self.write_pos);
         let out = as_i32_mut(self.out);
         let one = s.splat_i(1);
@@ -548,5 +802,6 @@ impl Kernel for ScatterToBins<'_> {
             );
             s.mask_scatter_i(out, m, slot, index);
         }
+        s.end_task();
     }
 }

@@ -8,47 +8,71 @@
 //! nearest point onward, are tested 16 at a time: inside the cone from the light centre through the
 //! triangle (three edge planes) and the triangle's plane crossed between light and sample.
 
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Simd, TaskRecord};
+use sism_simd::{Kernel, Mask16, Simd};
 
-use super::{run_task, Exec};
-
-use super::binning::{bin_items, BinLists};
-use super::grid::{FaceGrid, Grid};
+use super::binning::{bin_items, BinItems, BinLists};
+use super::grid::Grid;
 use super::light_view::LightFace;
-use super::silhouettes::SceneTopology;
+use super::StageInputs;
+use crate::exec::{task_kind, Phase};
+use crate::scene::topology::SceneTopology;
+use crate::stats::{percentiles, Dist};
 
 /// Relative tolerance on the crossing parameter: a triangle crosses the segment light -> sample when
 /// its plane is hit at `t < 1 - SELF_SHADOW_EPS` (t = 1 at the sample). It keeps a receiver from
 /// shadowing itself through f32 rounding; at 5e-5 it is 0.05 mm per metre of light distance.
 pub const SELF_SHADOW_EPS: f32 = 5e-5;
 
-/// Counters of the umbra stage.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct UmbraStats {
-    /// Triangles that count as occluders (all of open components, light-facing ones of closed ones).
-    pub triangles_counted: u64,
-    /// Triangles of closed components facing away from the light: skipped.
-    pub triangles_back_facing: u64,
-    /// (face, triangle) pairs dropped: entirely behind the light, behind every sample, or outside the
-    /// face's image bounds.
-    pub face_triangles_culled: u64,
-    /// (bin, triangle) pairs after binning.
-    pub triangles_binned: u64,
-    /// (bin, triangle) pairs skipped because every sample of the bin is nearer than the triangle.
-    pub bin_pairs_culled_by_depth: u64,
-    /// Point-in-triangle tests performed (sample lanes, active).
-    pub samples_tested: u64,
+crate::declare_stats! {
+    /// Counters of the umbra stage.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct UmbraStats {
+        /// Triangles that count as occluders (all of open components, light-facing ones of closed ones).
+        pub triangles_counted: u64 => ("umbra.triangles_counted", "triangles", "triangles that count as occluders"),
+        /// Triangles of closed components facing away from the light: skipped.
+        pub triangles_back_facing: u64 => ("umbra.triangles_back_facing", "triangles", "closed-mesh triangles facing away from the light: skipped"),
+        /// (face, triangle) pairs dropped: entirely behind the light, behind every sample, or outside
+        /// the face's image bounds.
+        pub face_triangles_culled: u64 => ("umbra.face_triangles_culled", "pairs", "(face, triangle) pairs behind the light, behind all samples or off-image"),
+        /// (bin, triangle) pairs after binning.
+        pub triangles_binned: u64 => ("umbra.triangles_binned", "pairs", "(bin, triangle) pairs tested"),
+        /// (bin, triangle) pairs skipped because every sample of the bin is nearer than the triangle.
+        pub bin_pairs_culled_by_depth: u64 => ("umbra.bin_pairs_culled_by_depth", "pairs", "(bin, triangle) pairs skipped: every sample nearer than the triangle"),
+        /// Point-in-triangle tests performed (sample lanes, active).
+        pub samples_tested: u64 => ("umbra.samples_tested", "tests", "sample-triangle tests (active lanes)"),
+        /// Depth complexity (umbra crossings) per sample; additive and light-point compositions only.
+        pub depth_complexity: Dist => ("dist.depth_complexity", "crossings", "umbra depth complexity per sample (distribution; additive composition)"),
+        /// Mean depth complexity per sample.
+        pub depth_complexity_mean: f64 => ("dist.depth_complexity.mean", "crossings", "mean umbra depth complexity per sample (additive composition)"),
+    }
 }
 
-/// Near-plane distance of a face for clipping occluders, world units: a tiny fraction of the nearest
-/// sample's depth (geometry nearer than that to the light centre is inside the light).
-#[inline]
-pub fn near_plane(g: &FaceGrid) -> f32 {
-    g.z_min * 1e-4
+impl UmbraStats {
+    /// Sets the depth-complexity distribution from every sample's count.
+    pub fn set_depth_complexity(&mut self, depth: &[i32]) {
+        self.depth_complexity = percentiles(depth.iter().map(|&d| d as u64));
+        self.depth_complexity_mean = depth.iter().map(|&d| d as f64).sum::<f64>() / depth.len().max(1) as f64;
+    }
+}
+
+/// Counters of triangle binning, per task.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TriangleBinCounts {
+    counted: u64,
+    back_facing: u64,
+    face_culled: u64,
+    depth_culled: u64,
+}
+
+impl std::ops::AddAssign for TriangleBinCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.counted += o.counted;
+        self.back_facing += o.back_facing;
+        self.face_culled += o.face_culled;
+        self.depth_culled += o.depth_culled;
+    }
 }
 
 /// Image-plane bounds and nearest depth of the polygon `pts` (face coordinates) clipped to `z >= near`;
@@ -82,65 +106,76 @@ pub fn clipped_bounds(pts: &[Vec3], near: f32) -> Option<(Vec2, Vec2, f32)> {
     (any && lo.is_finite() && hi.is_finite()).then_some((lo, hi, z_min))
 }
 
-/// Bins of face grid `g` overlapped by the column range `[c0, c1)`, as global bin indices.
-#[inline]
-pub fn bins_of_columns(
-    g: &FaceGrid,
-    bin_columns: u32,
-    c0: UVec2,
-    c1: UVec2,
-) -> impl Iterator<Item = usize> + '_ {
-    let b0 = c0 / bin_columns;
-    let b1 = (c1 - UVec2::ONE) / bin_columns;
-    (b0.y..=b1.y).flat_map(move |by| (b0.x..=b1.x).map(move |bx| (g.first_bin + by * g.bins.x + bx) as usize))
+/// Triangle binning: every counted triangle into the bins whose samples it may cover (bins entirely
+/// nearer than the triangle are skipped).
+struct TriangleBinner<'a> {
+    topo: &'a SceneTopology,
+    light_center: Vec3,
+    grid: &'a Grid,
 }
 
-/// Bins every counted triangle into the bins whose samples it may cover.
-pub fn bin_triangles(
-    topo: &SceneTopology,
-    light_center: Vec3,
-    grid: &Grid,
-    stats: &mut UmbraStats,
-) -> BinLists {
-    let counted = AtomicU64::new(0);
-    let back = AtomicU64::new(0);
-    let culled = AtomicU64::new(0);
-    let depth_culled = AtomicU64::new(0);
-    let b = grid.params.bin_columns;
-    let lists = bin_items(grid.bins.len(), topo.triangles.len(), |t, out| {
-        if !topo.counts(t as usize, light_center) {
-            back.fetch_add(1, Relaxed);
+impl BinItems for TriangleBinner<'_> {
+    type Counts = TriangleBinCounts;
+    #[inline(always)]
+    fn emit<S: Simd>(&self, s: S, t: u32, out: &mut Vec<(u32, u32)>, counts: &mut TriangleBinCounts) {
+        let grid = self.grid;
+        let b = grid.params.bin_columns;
+        let pairs_before = out.len();
+        // The counted test: flags, and the plane test of a closed component's triangle.
+        s.scalar_ops(12);
+        s.scalar_read(&self.topo.triangles[t as usize..t as usize + 1]);
+        if !self.topo.counts(t as usize, self.light_center) {
+            counts.back_facing += 1;
             return;
         }
-        counted.fetch_add(1, Relaxed);
-        let q = topo.triangles[t as usize].map(|v| v - light_center);
+        counts.counted += 1;
+        let q = self.topo.triangles[t as usize].map(|v| v - self.light_center);
         for g in grid.faces.iter().filter(|g| g.samples > 0) {
-            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, near_plane(g)) else {
-                culled.fetch_add(1, Relaxed);
+            // Three corners into the face, the near clip and the bounds (~45), the column range (~12).
+            s.scalar_ops(57);
+            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, g.near_plane()) else {
+                counts.face_culled += 1;
                 continue;
             };
             let (c0, c1) = g.column_range(lo, hi);
             if z_near >= g.z_max || c0.x >= c1.x || c0.y >= c1.y {
-                culled.fetch_add(1, Relaxed);
+                counts.face_culled += 1;
                 continue;
             }
-            for bin in bins_of_columns(g, b, c0, c1) {
+            for bin in g.bins_of_columns(b, c0, c1) {
                 let bn = &grid.bins[bin];
+                s.scalar_ops(6);
                 if bn.samples.is_empty() {
                     continue;
                 }
                 if bn.z_max <= z_near {
-                    depth_culled.fetch_add(1, Relaxed);
+                    counts.depth_culled += 1;
                     continue;
                 }
                 out.push((bin as u32, t));
             }
         }
-    });
-    stats.triangles_counted += counted.into_inner();
-    stats.triangles_back_facing += back.into_inner();
-    stats.face_triangles_culled += culled.into_inner();
-    stats.bin_pairs_culled_by_depth += depth_culled.into_inner();
+        s.scalar_ops(2 * (out.len() - pairs_before) as u64);
+    }
+}
+
+/// Bins every counted triangle into the bins whose samples it may cover (steps `bin` and `lists`).
+pub fn bin_triangles(phase: &mut Phase, inputs: &StageInputs<'_>, stats: &mut UmbraStats) -> BinLists {
+    let binner = TriangleBinner {
+        topo: inputs.topo,
+        light_center: inputs.light.center,
+        grid: inputs.grid,
+    };
+    let (lists, c) = bin_items(
+        phase,
+        &binner,
+        inputs.grid.bins.len(),
+        inputs.topo.triangles.len(),
+    );
+    stats.triangles_counted += c.counted;
+    stats.triangles_back_facing += c.back_facing;
+    stats.face_triangles_culled += c.face_culled;
+    stats.bin_pairs_culled_by_depth += c.depth_culled;
     stats.triangles_binned += lists.pairs() as u64;
     lists
 }
@@ -151,47 +186,32 @@ fn face_bounds(face: &LightFace, q: &[Vec3; 3], near: f32) -> Option<(Vec2, Vec2
     clipped_bounds(&q.map(|p| face.to_face(p)), near)
 }
 
-/// Splits `data` (one entry per sorted sample) into each bin's slice.
-pub fn split_by_bins<'a, T>(mut data: &'a mut [T], grid: &Grid) -> Vec<&'a mut [T]> {
-    let mut out = Vec::with_capacity(grid.bins.len());
-    for bin in &grid.bins {
-        let (head, tail) = data.split_at_mut(bin.samples.len());
-        out.push(head);
-        data = tail;
-    }
-    out
-}
-
-/// Depth complexity of every sample (sorted order), computed bin by bin.
+/// Depth complexity of every sample (sorted order), one task per bin with triangles (step `depth`).
 pub fn depth_complexity(
-    topo: &SceneTopology,
-    light_center: Vec3,
-    grid: &Grid,
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
     lists: &BinLists,
     stats: &mut UmbraStats,
-    exec: Exec,
-) -> (Vec<i32>, Vec<TaskRecord>) {
+) -> Vec<i32> {
+    let grid = inputs.grid;
     let mut counts = vec![0i32; grid.samples.pixel.len()];
-    let (tested, records): (Vec<u64>, Vec<Vec<TaskRecord>>) = split_by_bins(&mut counts, grid)
-        .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| !lists.of(*bin).is_empty())
-        .map(|(bin, out)| {
-            run_task(
-                exec,
-                UmbraBin {
-                    topo,
-                    light_center,
-                    grid,
-                    bin,
-                    triangles: lists.of(bin),
-                    out,
-                },
-            )
-        })
-        .unzip();
+    let tested = phase.run_par(
+        "depth",
+        grid.split_by_bins(&mut counts)
+            .into_par_iter()
+            .enumerate()
+            .filter(|(bin, _)| !lists.of(*bin).is_empty())
+            .map(|(bin, out)| UmbraBin {
+                topo: inputs.topo,
+                light_center: inputs.light.center,
+                grid,
+                bin,
+                triangles: lists.of(bin),
+                out,
+            }),
+    );
     stats.samples_tested += tested.iter().sum::<u64>();
-    (counts, records.into_iter().flatten().collect())
+    counts
 }
 
 /// The per-bin umbra task.
@@ -204,9 +224,6 @@ pub struct UmbraBin<'a> {
     /// Depth complexity of the bin's samples (bin-local indices).
     pub out: &'a mut [i32],
 }
-
-/// Task kind of umbra bins in counting records.
-pub const TASK_UMBRA_BIN: u32 = 2;
 
 /// A triangle prepared for testing the samples of one bin.
 #[derive(Clone, Copy, Debug)]
@@ -229,7 +246,7 @@ pub struct TriangleInBin {
 pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<TriangleInBin> {
     let b = &grid.bins[bin];
     let g = &grid.faces[b.face as usize];
-    let (lo, hi, z_near) = face_bounds(&g.face, q, near_plane(g))?;
+    let (lo, hi, z_near) = face_bounds(&g.face, q, g.near_plane())?;
     let (c0, c1) = g.column_range(lo, hi);
     let bin_c1 = (b.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
     let (c0, c1) = (c0.max(b.column0), c1.min(bin_c1));
@@ -292,21 +309,11 @@ pub fn covered<S: Simd>(s: S, t: &TriangleInBin, m: Mask16, x: S::F32, y: S::F32
     s.mask_and(m, s.mask_and(between, s.mask_or(all_pos, all_neg)))
 }
 
-/// Sample range of row `row` of a triangle's columns: from its first column's first relevant slice to
-/// its last column's end. Columns of one bin row are contiguous in memory, so this is one range; the
-/// nearer slices of the columns in between are tested too (exactly: lanes wasted, not accuracy).
-#[inline]
-pub fn row_span(grid: &Grid, bin: usize, c0: UVec2, c1: UVec2, row: u32, first_slice: u32) -> (usize, usize) {
-    let start = grid.column_samples(bin, UVec2::new(c0.x, row), first_slice).start;
-    let end = grid.column_samples(bin, UVec2::new(c1.x - 1, row), 0).end;
-    (start, end)
-}
-
 impl Kernel for UmbraBin<'_> {
     type Output = u64;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> u64 {
-        s.begin_task(TASK_UMBRA_BIN);
+        s.begin_task(task_kind::UMBRA_BIN);
         let grid = self.grid;
         let base = grid.bins[self.bin].samples.start as usize;
         let samples = &grid.samples;
@@ -320,7 +327,7 @@ impl Kernel for UmbraBin<'_> {
                 continue;
             };
             for row in tri.c0.y..tri.c1.y {
-                let (start, end) = row_span(grid, self.bin, tri.c0, tri.c1, row, tri.first_slice);
+                let (start, end) = grid.row_span(self.bin, tri.c0, tri.c1, row, tri.first_slice);
                 let mut i = start;
                 while i < end {
                     let m = s.mask_first_n(end - i);

@@ -11,12 +11,98 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::bvh::SceneBvh;
+use crate::exec::FrameLog;
 use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
 use crate::sampling::{concentric_disk, Rng, Strata};
 use crate::scene::shapes::orthonormal_basis;
+use crate::scene::topology::SceneTopology;
 use crate::scene::{Light, Scene};
-use crate::sism::silhouettes::SceneTopology;
+use crate::stats::StatsReport;
+
+/// The reference's parameters (both modes).
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "spp",
+        kind: ParamKind::Int { min: 1, max: 65_536 },
+        default: "256",
+        description: "stratified light-disk samples per receiver, one shadow ray each",
+    },
+    ParamSpec {
+        key: "seed",
+        kind: ParamKind::U64,
+        default: "0",
+        description: "seed of the sample jitter: the same seed gives the same image on any host",
+    },
+];
+
+/// `reference`: the visibility of CONTRACTS.md, ray traced.
+pub static REFERENCE: super::Algorithm = super::Algorithm {
+    name: "reference",
+    family: Family::RayTraced,
+    summary: "ray-traced visibility: `spp` stratified light-disk samples per receiver, one shadow ray each",
+    params: PARAMS,
+    receivers: ReceiverSource::RayCast,
+    kernels: false,
+    bench: BenchPlan::Sweep {
+        key: "spp",
+        values: &["4", "16", "64", "256"],
+    },
+    run: |inputs, params, log| run(inputs, params, log, ReferenceMode::Exact),
+};
+
+/// `reference-additive`: SISM's model, ray traced (see [`ReferenceMode::AdditiveOverlap`]).
+pub static REFERENCE_ADDITIVE: super::Algorithm = super::Algorithm {
+    name: "reference-additive",
+    family: Family::RayTraced,
+    summary: "ray-traced SISM model without its projection approximation (counted occluder crossings \
+averaged over the light disk): `compare` it with `reference` to measure the overlap (C = 0) error, \
+with `sism` to measure the rest",
+    params: PARAMS,
+    receivers: ReceiverSource::RayCast,
+    kernels: false,
+    bench: BenchPlan::Skip,
+    run: |inputs, params, log| run(inputs, params, log, ReferenceMode::AdditiveOverlap),
+};
+
+/// The registry's entry point: shadow rays for every receiver.
+fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, mode: ReferenceMode) -> AlgorithmFrame {
+    let options = ReferenceOptions {
+        spp: params.int("spp") as u32,
+        seed: params.u64("seed"),
+        progress: inputs.progress,
+        mode,
+    };
+    let prepared = inputs.prepared;
+    let bvh = prepared.bvh();
+    let topology = (mode == ReferenceMode::AdditiveOverlap).then(|| prepared.topology());
+    let t = Instant::now();
+    let (visibility, rays) = log.phase("shadow", "shadow rays", |_| {
+        render_visibility(prepared.scene, bvh, topology, inputs.receivers, &options)
+    });
+    let shadow_s = t.elapsed().as_secs_f64();
+    let mut stats = StatsReport::default();
+    stats
+        .stat(
+            "reference.spp",
+            options.spp as f64,
+            "samples",
+            "light-disk samples per receiver",
+        )
+        .stat("rays.shadow", rays as f64, "rays", "shadow rays cast")
+        .stat(
+            "rays.shadow_per_second",
+            if shadow_s > 0.0 {
+                rays as f64 / shadow_s
+            } else {
+                0.0
+            },
+            "rays/s",
+            "shadow-ray throughput on this host",
+        );
+    AlgorithmFrame { visibility, stats }
+}
 
 /// What the reference integrates.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -169,10 +255,12 @@ fn disk_visibility(
     (1.0 - occluded.clamp(0.0, 1.0), strata.count())
 }
 
-/// Renders reference visibility for every pixel of `receivers`.
+/// Renders reference visibility for every pixel of `receivers`; `topology` is needed (and used) by
+/// [`ReferenceMode::AdditiveOverlap`] only. Returns the image and the shadow rays cast.
 pub fn render_visibility(
     scene: &Scene,
     bvh: &SceneBvh,
+    topology: Option<&SceneTopology>,
     receivers: &Receivers,
     options: &ReferenceOptions,
 ) -> (VisibilityImage, u64) {
@@ -180,7 +268,15 @@ pub fn render_visibility(
     let width = receivers.width as usize;
     let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
     let bar = crate::progress::bar(receivers.height as u64, "reference shadow rays", options.progress);
-    let topology = (options.mode == ReferenceMode::AdditiveOverlap).then(|| SceneTopology::build(scene));
+    let built;
+    let topology = match (options.mode, topology) {
+        (ReferenceMode::Exact, _) => None,
+        (ReferenceMode::AdditiveOverlap, Some(t)) => Some(t),
+        (ReferenceMode::AdditiveOverlap, None) => {
+            built = SceneTopology::build(scene);
+            Some(&built)
+        }
+    };
     let rays: u64 = image
         .values
         .par_chunks_mut(width)
@@ -191,7 +287,7 @@ pub fn render_visibility(
             for (i, (v, r)) in out.iter_mut().zip(row).enumerate() {
                 if let Some(r) = r {
                     let mut rng = Rng::new(options.seed, (j * width + i) as u64);
-                    let (value, n) = match &topology {
+                    let (value, n) = match topology {
                         None => receiver_visibility(bvh, &scene.light, r, &strata, &mut rng),
                         Some(topo) => {
                             receiver_visibility_additive(bvh, topo, &scene.light, r, &strata, &mut rng)
@@ -209,8 +305,8 @@ pub fn render_visibility(
     (image, rays)
 }
 
-/// The whole reference render: primary rays, then shadow rays. The BVH is built by the caller so it can
-/// be timed apart and reused.
+/// The whole reference render outside the registry (for tests and tools): primary rays, then shadow
+/// rays. The BVH is built by the caller so it can be timed apart and reused.
 pub fn render(
     scene: &Scene,
     bvh: &SceneBvh,
@@ -220,7 +316,7 @@ pub fn render(
     let receivers = cast_primary_rays(scene, bvh);
     let time_primary = t0.elapsed();
     let t1 = Instant::now();
-    let (image, shadow_rays) = render_visibility(scene, bvh, &receivers, options);
+    let (image, shadow_rays) = render_visibility(scene, bvh, None, &receivers, options);
     let time_shadow = t1.elapsed();
     let stats = ReferenceStats {
         primary_rays: receivers.pixels.len() as u64,

@@ -181,22 +181,7 @@ impl From<EdgeRecord> for EdgeRecordF64 {
 // Vector kernel
 // ---------------------------------------------------------------------------------------------
 
-/// A 3-vector of 16 lanes.
-pub type V3<S> = [<S as Simd>::F32; 3];
-
-#[inline(always)]
-pub fn dot3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> S::F32 {
-    s.fmadd(a[0], b[0], s.fmadd(a[1], b[1], s.mul_f(a[2], b[2])))
-}
-
-#[inline(always)]
-pub fn cross3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> V3<S> {
-    [
-        s.fmsub(a[1], b[2], s.mul_f(a[2], b[1])),
-        s.fmsub(a[2], b[0], s.mul_f(a[0], b[2])),
-        s.fmsub(a[0], b[1], s.mul_f(a[1], b[0])),
-    ]
-}
+pub use crate::vmath::{cross3, dot3, V3};
 
 /// `a·b - c·d` to within ~1 ulp of the result however much cancels (Kahan's FMA trick).
 #[inline(always)]

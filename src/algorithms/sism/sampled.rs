@@ -49,15 +49,16 @@
 //! over the points. Measured: 1.6–1.9× the additive penumbra natively at 1600×1200, 2.6× on the
 //! modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
-use sism_simd::{Kernel, Simd, TaskRecord};
+use sism_simd::{Kernel, Simd};
 
-use super::binning::BinLists;
 use super::grid::Grid;
-use super::occlusion::{cross3, dot3, edge_frame, region_area, signed_sum, EdgeRecord};
+use super::occlusion::{edge_frame, region_area, signed_sum, EdgeRecord};
 use super::penumbra::{
     bin_parts, count_reached, quad_in_bin, run_parts, select_in_wedge, BinPart, PenumbraStats,
 };
-use super::Exec;
+use super::{Occluders, SismLight, StageInputs};
+use crate::exec::{task_kind, Phase};
+use crate::vmath::{cross3, dot3};
 
 /// Points of the light disk at which each sample counts occluders (a multiple of 16).
 pub const LIGHT_POINTS: usize = 64;
@@ -123,49 +124,44 @@ fn rotation_table() -> (Vec<f32>, Vec<f32>) {
         .unzip()
 }
 
-/// Visible fraction of every sample (sorted order) under light-point composition. `depth` is the
-/// umbra's depth complexity per sample (sorted order).
-#[allow(clippy::too_many_arguments)]
+/// Visible fraction of every sample (sorted order) under light-point composition, one task per bin
+/// part (step `light_points`). `depth` is the umbra's depth complexity per sample (sorted order).
 pub fn visible_fraction(
-    edges: &[EdgeRecord],
-    light_radius: f32,
-    widen: &[f32],
-    grid: &Grid,
-    lists: &BinLists,
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
+    occluders: &Occluders<'_>,
     depth: &[i32],
     estimator: LightPointEstimator,
     stats: &mut PenumbraStats,
-    exec: Exec,
-) -> (Vec<f32>, Vec<TaskRecord>) {
+) -> Vec<f32> {
+    let grid = inputs.grid;
+    let lists = occluders.quads;
     // Samples no quad reaches are lit exactly when no triangle covers the light centre.
     let mut visible: Vec<f32> = depth.iter().map(|&d| if d == 0 { 1.0 } else { 0.0 }).collect();
     let points = point_set();
     let rotations = rotation_table();
     let parts = bin_parts(grid, lists);
-    let records = run_parts(&mut visible, &parts, stats, exec, |part, out| SampledBin {
-        edges,
-        light_radius,
-        widen: widen[grid.bins[part.bin].face as usize],
-        grid,
-        part,
-        quads: lists.of(part.bin),
-        depth: &depth[part.samples.clone()],
-        estimator,
-        points: &points,
-        rotations: (&rotations.0, &rotations.1),
-        out,
+    run_parts(phase, "light_points", &mut visible, &parts, stats, |part, out| {
+        SampledBin {
+            edges: &occluders.silhouettes.edges,
+            light: inputs.light,
+            grid,
+            part,
+            quads: lists.of(part.bin),
+            depth: &depth[part.samples.clone()],
+            estimator,
+            points: &points,
+            rotations: (&rotations.0, &rotations.1),
+            out,
+        }
     });
-    (visible, records)
+    visible
 }
-
-/// Task kind of light-point penumbra bins in counting records.
-pub const TASK_SAMPLED_BIN: u32 = 6;
 
 /// The per-bin light-point penumbra task.
 struct SampledBin<'a> {
     edges: &'a [EdgeRecord],
-    light_radius: f32,
-    widen: f32,
+    light: &'a SismLight,
     grid: &'a Grid,
     part: &'a BinPart,
     quads: &'a [u32],
@@ -242,7 +238,7 @@ impl Kernel for SampledBin<'_> {
     type Output = ([u64; 3], Vec<u32>);
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
-        s.begin_task(TASK_SAMPLED_BIN);
+        s.begin_task(task_kind::SAMPLED_BIN);
         let positions = self.part.positions(self.grid);
         let n_samples = positions.0.len();
         let mut reached = vec![0u32; n_samples];
@@ -264,7 +260,7 @@ impl Kernel for SampledBin<'_> {
         for &e in self.quads {
             let edge = &self.edges[e as usize];
             s.scalar_ops(60);
-            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light_radius, self.widen) else {
+            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light) else {
                 continue;
             };
             let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
@@ -275,7 +271,7 @@ impl Kernel for SampledBin<'_> {
                 &bases,
                 self.points,
                 edge,
-                self.light_radius,
+                self.light.radius,
                 &mut counts,
                 &mut sums,
             );

@@ -13,67 +13,54 @@
 //! each component's coverage is accumulated at the samples it touches, then folded into the product.
 //! This fuses the umbra and penumbra passes into one per bin.
 
-use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd, TaskRecord};
+use sism_simd::{Kernel, Simd};
 
-use super::{run_task, Exec};
+use super::penumbra::{add_edge_terms, count_reached, quad_in_bin, select_in_wedge, BinPart, PenumbraStats};
+use super::umbra::{covered, triangle_in_bin, UmbraStats};
+use super::{Occluders, StageInputs};
+use crate::exec::{task_kind, Phase};
 
-use super::binning::BinLists;
-use super::grid::Grid;
-use super::occlusion::EdgeRecord;
-use super::penumbra::{
-    add_edge_terms, count_reached, quad_in_bin, select_in_wedge, BinOutputs, BinPart, PenumbraStats,
-};
-use super::silhouettes::SceneTopology;
-use super::umbra::{covered, row_span, split_by_bins, triangle_in_bin, UmbraStats};
-
-/// Task kind of fused occlusion bins in counting records.
-pub const TASK_OCCLUSION_BIN: u32 = 5;
-
-/// Everything the fused pass reads.
-pub struct Inputs<'a> {
-    pub topo: &'a SceneTopology,
-    pub light_center: Vec3,
-    pub light_radius: f32,
-    pub grid: &'a Grid,
-    pub triangle_lists: &'a BinLists,
-    pub edges: &'a [EdgeRecord],
-    /// Object of each edge record (see `SceneTopology::object`).
-    pub edge_components: &'a [u32],
-    pub quad_lists: &'a BinLists,
-    /// Per light face, `1 / cos(alpha)` for quad widths.
-    pub widen: &'a [f32],
-}
-
-/// Visible fraction of every sample (sorted order) under independent composition.
+/// Visible fraction of every sample (sorted order) under independent composition, one task per bin
+/// with triangles or quads (step `fused`).
 pub fn visible_fraction(
-    inputs: &Inputs,
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
+    occluders: &Occluders<'_>,
     umbra: &mut UmbraStats,
     penumbra: &mut PenumbraStats,
-    exec: Exec,
-) -> (Vec<f32>, Vec<TaskRecord>) {
+) -> Vec<f32> {
     let mut visible = vec![1f32; inputs.grid.samples.pixel.len()];
-    let (counters, records): BinOutputs<[u64; 4]> = split_by_bins(&mut visible, inputs.grid)
-        .into_par_iter()
-        .enumerate()
-        .filter(|(bin, _)| {
-            !inputs.triangle_lists.of(*bin).is_empty() || !inputs.quad_lists.of(*bin).is_empty()
-        })
-        .map(|(bin, out)| run_task(exec, OcclusionBin { inputs, bin, out }))
-        .unzip();
+    let counters = phase.run_par(
+        "fused",
+        inputs
+            .grid
+            .split_by_bins(&mut visible)
+            .into_par_iter()
+            .enumerate()
+            .filter(|(bin, _)| {
+                !occluders.triangles.of(*bin).is_empty() || !occluders.quads.of(*bin).is_empty()
+            })
+            .map(|(bin, out)| OcclusionBin {
+                inputs,
+                occluders,
+                bin,
+                out,
+            }),
+    );
     for (c, _) in &counters {
         umbra.samples_tested += c[0];
         penumbra.add_bin([c[1], c[2], c[3]]);
     }
     penumbra.set_quads_per_sample(counters.iter().map(|c| &c.1));
     penumbra.tasks += counters.len() as u64;
-    (visible, records.into_iter().flatten().collect())
+    visible
 }
 
 /// One bin of the fused pass.
 pub struct OcclusionBin<'a> {
-    pub inputs: &'a Inputs<'a>,
+    pub inputs: &'a StageInputs<'a>,
+    pub occluders: &'a Occluders<'a>,
     pub bin: usize,
     /// Visible fraction of the bin's samples (bin-local), starting at 1.
     pub out: &'a mut [f32],
@@ -85,8 +72,9 @@ impl Kernel for OcclusionBin<'_> {
     type Output = ([u64; 4], Vec<u32>);
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
-        s.begin_task(TASK_OCCLUSION_BIN);
+        s.begin_task(task_kind::OCCLUSION_BIN);
         let inp = self.inputs;
+        let occ = self.occluders;
         let grid = inp.grid;
         let bin = self.bin;
         let base = grid.bins[bin].samples.start as usize;
@@ -94,19 +82,18 @@ impl Kernel for OcclusionBin<'_> {
         // One task per whole bin: the fused pass orders the bin's triangles and quads by object.
         let part = BinPart::whole(grid, bin);
         let positions = part.positions(grid);
-        let widen = inp.widen[grid.bins[bin].face as usize];
 
         // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1).
-        let mut items: Vec<(u32, u8, u32)> = inp
-            .triangle_lists
+        let mut items: Vec<(u32, u8, u32)> = occ
+            .triangles
             .of(bin)
             .iter()
             .map(|&t| (inp.topo.object[t as usize], 0u8, t))
             .chain(
-                inp.quad_lists
+                occ.quads
                     .of(bin)
                     .iter()
-                    .map(|&e| (inp.edge_components[e as usize], 1u8, e)),
+                    .map(|&e| (occ.silhouettes.objects[e as usize], 1u8, e)),
             )
             .collect();
         items.sort_unstable();
@@ -135,13 +122,13 @@ impl Kernel for OcclusionBin<'_> {
             for &(_, kind, index) in &items[at..end] {
                 let n_hit = if kind == 0 {
                     // Umbra: +1 coverage where the sample lies behind the triangle.
-                    let q = inp.topo.triangles[index as usize].map(|v| v - inp.light_center);
+                    let q = inp.topo.triangles[index as usize].map(|v| v - inp.light.center);
                     let Some(tri) = triangle_in_bin(grid, bin, &q) else {
                         continue;
                     };
                     let mut n = 0usize;
                     for row in tri.c0.y..tri.c1.y {
-                        let (start, stop) = row_span(grid, bin, tri.c0, tri.c1, row, tri.first_slice);
+                        let (start, stop) = grid.row_span(bin, tri.c0, tri.c1, row, tri.first_slice);
                         let mut i = start;
                         while i < stop {
                             let m = s.mask_first_n(stop - i);
@@ -161,12 +148,12 @@ impl Kernel for OcclusionBin<'_> {
                     n
                 } else {
                     // Penumbra: the edge's signed term at the samples inside its wedge.
-                    let edge = &inp.edges[index as usize];
-                    let Some(q) = quad_in_bin(grid, bin, edge, inp.light_radius, widen) else {
+                    let edge = &occ.silhouettes.edges[index as usize];
+                    let Some(q) = quad_in_bin(grid, bin, edge, inp.light) else {
                         continue;
                     };
                     let n = select_in_wedge(s, grid, &part, &q, &mut selected, &mut culled);
-                    add_edge_terms(s, &selected, n, positions, edge, inp.light_radius, &mut coverage);
+                    add_edge_terms(s, &selected, n, positions, edge, inp.light.radius, &mut coverage);
                     count_reached(&mut reached, &selected[..n]);
                     evaluated += n as u64;
                     n

@@ -7,36 +7,32 @@
 //! chord at distance `d = |c - p| cot(theta) / r` from the centre (theta between normal and light
 //! direction); the hidden part is the circular segment beyond it, `(acos d - d sqrt(1 - d^2)) / pi`.
 
-use sism_simd::{Kernel, Simd};
+use rayon::prelude::*;
+use sism_simd::{as_i32, Kernel, Simd};
 
 use super::grid::Grid;
+use super::StageInputs;
+use crate::exec::{task_kind, Phase};
 use crate::frame::VisibilityImage;
-use rayon::prelude::*;
-use sism_simd::TaskRecord;
-
-use super::{run_task, Exec};
-
-/// Task kind of the resolve pass in counting records.
-pub const TASK_RESOLVE: u32 = 4;
 
 /// The occlusion a frame has computed, per sample (sorted order).
-#[derive(Clone, Copy)]
-pub enum Occlusion<'a> {
+#[derive(Clone, Debug)]
+pub enum Occlusion {
     /// Eq. 4: depth complexity and, unless the light is a point, penumbra sums; `V = 1 - clamp01(sum)`.
     Additive {
-        umbra: &'a [i32],
-        penumbra: Option<&'a [f32]>,
+        umbra: Vec<i32>,
+        penumbra: Option<Vec<f32>>,
     },
-    /// Independent occluders (see `independent`): the visible fraction so far, multiplied by the
-    /// horizon's.
-    Visible(&'a [f32]),
+    /// Composed elsewhere (independent occluders, light points): the visible fraction so far,
+    /// multiplied by the horizon's.
+    Visible(Vec<f32>),
 }
 
-/// Writes every sample's visibility into `image` (pixels without a sample keep their value).
+/// Computes the visibility of the samples `first..first + out.len()`.
 pub struct Resolve<'a> {
     pub grid: &'a Grid,
     /// Composition of the occluders' coverages.
-    pub occlusion: Occlusion<'a>,
+    pub occlusion: &'a Occlusion,
     /// Light radius, world units (0: no horizon term).
     pub light_radius: f32,
     /// First sorted sample of this task; `out` holds the visibility of `out.len()` samples from it.
@@ -47,42 +43,80 @@ pub struct Resolve<'a> {
 /// Samples per resolve task: enough work per task, and tasks for every core of the modelled chip.
 pub const RESOLVE_CHUNK: usize = 16_384;
 
-/// Eq. 4 for every sample, as tasks of [`RESOLVE_CHUNK`] samples, then the values written to their
-/// pixels. Returns the task records (none natively).
-pub fn resolve(
-    grid: &Grid,
-    occlusion: Occlusion<'_>,
-    light_radius: f32,
+/// Eq. 4 for every sample, as tasks of [`RESOLVE_CHUNK`] samples (step `eq4`), then the values
+/// scattered to their pixels of `image` (step `scatter`; pixels without a sample keep their value).
+pub fn compose(
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
+    occlusion: &Occlusion,
     image: &mut VisibilityImage,
-    exec: Exec,
-) -> Vec<TaskRecord> {
+) {
+    let grid = inputs.grid;
     let mut values = vec![0f32; grid.samples.pixel.len()];
-    let records: Vec<Vec<TaskRecord>> = values
-        .par_chunks_mut(RESOLVE_CHUNK)
-        .enumerate()
-        .map(|(k, out)| {
-            let task = Resolve {
+    phase.run_par(
+        "eq4",
+        values
+            .par_chunks_mut(RESOLVE_CHUNK)
+            .enumerate()
+            .map(|(k, out)| Resolve {
                 grid,
                 occlusion,
-                light_radius,
+                light_radius: inputs.light.radius,
                 first: k * RESOLVE_CHUNK,
                 out,
-            };
-            run_task(exec, task).1
-        })
-        .collect();
-    // Scattering into the frame is a plain store per sample (the chip's tasks would scatter in place).
-    for (&pixel, &v) in grid.samples.pixel.iter().zip(&values) {
-        image.values[pixel as usize] = v;
+            }),
+    );
+    // The scatter writes one shared image, so the host runs its tasks one after another (a pixel has
+    // at most one sample: the chip's tasks would not conflict).
+    for (pixels, values) in grid
+        .samples
+        .pixel
+        .chunks(RESOLVE_CHUNK)
+        .zip(values.chunks(RESOLVE_CHUNK))
+    {
+        phase.run(
+            "scatter",
+            ScatterToPixels {
+                pixels,
+                values,
+                image: &mut image.values,
+            },
+        );
     }
-    records.into_iter().flatten().collect()
+}
+
+/// Step `scatter`: a chunk of samples' values stored at their pixels (a vector scatter per 16).
+struct ScatterToPixels<'a> {
+    pixels: &'a [u32],
+    values: &'a [f32],
+    image: &'a mut [f32],
+}
+
+impl Kernel for ScatterToPixels<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::SISM_RESOLVE_SCATTER);
+        let zero = s.splat_f(0.0);
+        // Pixel indices are < 2^27 (MAX_PIXELS): exact as i32 lanes.
+        let pixels = as_i32(self.pixels);
+        let mut i = 0;
+        while i < self.pixels.len() {
+            let m = s.mask_first_n(self.pixels.len() - i);
+            let idx = s.mask_load_i(s.splat_i(0), m, &pixels[i..]);
+            let v = s.mask_load_f(zero, m, &self.values[i..]);
+            s.mask_scatter_f(self.image, m, idx, v);
+            i += 16;
+        }
+        s.end_task();
+    }
 }
 
 impl Kernel for Resolve<'_> {
     type Output = ();
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
-        s.begin_task(TASK_RESOLVE);
+        s.begin_task(task_kind::SISM_RESOLVE);
         let end = self.first + self.out.len();
         let zero = s.splat_f(0.0);
         let one = s.splat_f(1.0);

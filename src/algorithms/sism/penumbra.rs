@@ -10,46 +10,55 @@
 //! bin are dropped), and per column the same bound solved for `z_p` gives the depth where the wedge
 //! enters the column: nearer samples are skipped (Section 2.5).
 
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
-
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd, TaskRecord};
+use sism_simd::{Kernel, Simd};
 
-use super::{run_task, Exec};
-
-use super::binning::{bin_items, BinLists};
+use super::binning::{bin_items, BinItems, BinLists};
 use super::grid::{FaceGrid, Grid};
 use super::occlusion::{edge_term, EdgeRecord};
-use super::umbra::{bins_of_columns, near_plane, row_span};
+use super::silhouettes::Silhouettes;
+use super::{Occluders, SismLight, StageInputs};
+use crate::exec::{task_kind, Phase};
+use crate::stats::{percentiles, Dist};
 
-/// Counters of the penumbra stage.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PenumbraStats {
-    /// Silhouette edge records (an edge with two counted same-side triangles is one record).
-    pub silhouettes: u64,
-    /// (face, edge) quads generated (before any culling against bins).
-    pub quads: u64,
-    /// Quads dropped for a face: behind the light, farther than every sample, or outside the image.
-    pub quads_culled_face: u64,
-    /// (bin, quad) pairs the face-wide width reaches.
-    pub quad_bin_pairs_before_culling: u64,
-    /// (bin, quad) pairs dropped after refining the width with the bin's farthest sample.
-    pub quad_bin_pairs_culled_by_bin_depth: u64,
-    /// (bin, quad) pairs processed.
-    pub quad_bin_pairs: u64,
-    /// Rows of columns under a quad skipped entirely by the wedge test.
-    pub rows_culled_by_wedge: u64,
-    /// Samples under a quad skipped by the wedge's entry depth.
-    pub samples_culled_by_wedge: u64,
-    /// Sample-edge evaluations of Eq. 3 (active lanes).
-    pub samples_evaluated: u64,
-    /// Samples inside at least one quad's wedge.
-    pub samples_reached: u64,
-    /// Quads evaluated per reached sample: `[p50, p90, p99, max]`.
-    pub quads_per_sample: [u64; 4],
-    /// Penumbra tasks (bins, or rows of columns of heavy bins; see [`SPLIT_WORK`]).
-    pub tasks: u64,
+/// Relative slack on the widened radius in the per-sample wedge test ([`SismLight::wedge_radius`]),
+/// so f32 rounding never drops a sample the exact test would keep.
+pub const WEDGE_SLACK: f32 = 1e-4;
+
+crate::declare_stats! {
+    /// Counters of the penumbra stage.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    pub struct PenumbraStats {
+        /// Silhouette edge records (an edge with two counted same-side triangles is one record).
+        pub silhouettes: u64 => ("penumbra.silhouettes", "edges", "silhouette edge records w.r.t. the light centre"),
+        /// (face, edge) quads generated (before any culling against bins).
+        pub quads: u64 => ("penumbra.quads", "quads", "(face, edge) penumbra quads generated"),
+        /// Quads dropped for a face: behind the light, farther than every sample, or outside the image.
+        pub quads_culled_face: u64 => ("penumbra.quads_culled_face", "quads", "quads behind the light, farther than all samples or off-image"),
+        /// (bin, quad) pairs the face-wide width reaches.
+        pub quad_bin_pairs_before_culling: u64 => ("penumbra.quad_bin_pairs_before_culling", "pairs", "(bin, quad) pairs reached with the face-wide width"),
+        /// (bin, quad) pairs dropped after refining the width with the bin's farthest sample.
+        pub quad_bin_pairs_culled_by_bin_depth: u64 => ("penumbra.quad_bin_pairs_culled", "pairs", "(bin, quad) pairs dropped by the bin's depth-refined width"),
+        /// (bin, quad) pairs processed.
+        pub quad_bin_pairs: u64 => ("penumbra.quad_bin_pairs", "pairs", "(bin, quad) pairs processed"),
+        /// Rows of columns under a quad skipped entirely by the wedge test.
+        pub rows_culled_by_wedge: u64 => ("penumbra.rows_culled_by_wedge", "rows", "rows of columns under a quad the wedge misses"),
+        /// Samples under a quad skipped by the wedge's entry depth or the per-sample wedge test.
+        pub samples_culled_by_wedge: u64 => ("penumbra.samples_culled_by_wedge", "samples", "samples under a quad outside its wedge (by row depth or per sample)"),
+        /// Sample-edge evaluations of Eq. 3 (active lanes).
+        pub samples_evaluated: u64 => ("penumbra.samples_evaluated", "evaluations", "Eq. 3 evaluations (active lanes)"),
+        /// `samples_evaluated` per grid sample (integer mean; see [`PenumbraStats::finish`]).
+        pub evaluations_per_sample: u64 => ("penumbra.evaluations_per_sample", "evaluations", "Eq. 3 evaluations per sample (integer mean)"),
+        /// Penumbra tasks (bins, or rows of columns of heavy bins; see [`SPLIT_WORK`]).
+        pub tasks: u64 => ("penumbra.tasks", "tasks", "penumbra tasks: bins, or single rows of columns of bins with more quad-sample pairs than SPLIT_WORK"),
+        /// `samples_evaluated` per (bin, quad) pair (integer mean).
+        pub evaluations_per_quad: u64 => ("penumbra.evaluations_per_quad", "evaluations", "samples evaluated per (bin, quad) pair (integer mean)"),
+        /// Samples inside at least one quad's wedge.
+        pub samples_reached: u64 => ("penumbra.samples_reached", "samples", "samples inside at least one penumbra quad's wedge"),
+        /// Quads evaluated per reached sample.
+        pub quads_per_sample: Dist => ("dist.quads_per_sample", "quads", "penumbra quads evaluated per reached sample (distribution)"),
+    }
 }
 
 impl PenumbraStats {
@@ -65,13 +74,18 @@ impl PenumbraStats {
     pub fn set_quads_per_sample<'a>(&mut self, per_bin: impl Iterator<Item = &'a Vec<u32>> + Clone) {
         let reached = per_bin.flat_map(|v| v.iter()).filter(|&&n| n > 0);
         self.samples_reached = reached.clone().count() as u64;
-        self.quads_per_sample = super::percentiles(reached.map(|&n| n as u64));
+        self.quads_per_sample = percentiles(reached.map(|&n| n as u64));
+    }
+
+    /// The derived means, once the frame's `samples` are known.
+    pub fn finish(&mut self, samples: u64) {
+        self.evaluations_per_sample = self.samples_evaluated.checked_div(samples).unwrap_or(0);
+        self.evaluations_per_quad = self
+            .samples_evaluated
+            .checked_div(self.quad_bin_pairs)
+            .unwrap_or(0);
     }
 }
-
-/// Bin tasks' outputs, unzipped: per bin its counters `C` and quads per bin-local sample, and its
-/// task records.
-pub type BinOutputs<C> = (Vec<(C, Vec<u32>)>, Vec<Vec<TaskRecord>>);
 
 /// Counts, per bin-local sample, the quads whose wedge contained it (`selected` from
 /// [`select_in_wedge`]). Statistics only: not part of the modelled work, so not counted.
@@ -95,7 +109,7 @@ fn quad_geometry(g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
     let a = g.face.to_face(Vec3::from(e.a));
     let b = g.face.to_face(Vec3::from(e.b));
     // Clipped to the face's near plane, as the umbra clips its triangles.
-    let near = near_plane(g);
+    let near = g.near_plane();
     let clip = |p: Vec3, q: Vec3| -> Option<Vec3> {
         if p.z >= near {
             Some(p)
@@ -162,118 +176,155 @@ pub fn segment_rect_distance(a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> f32 {
     best
 }
 
-/// Bins the silhouette edges' penumbra quads. `widen[f]` is face `f`'s `1 / cos(alpha)` factor.
-pub fn bin_quads(
-    edges: &[EdgeRecord],
-    light_radius: f32,
-    widen: &[f32],
-    grid: &Grid,
-    stats: &mut PenumbraStats,
-) -> BinLists {
-    let quads = AtomicU64::new(0);
-    let culled_face = AtomicU64::new(0);
-    let before = AtomicU64::new(0);
-    let culled_bin = AtomicU64::new(0);
-    let b = grid.params.bin_columns;
-    let lists = bin_items(grid.bins.len(), edges.len(), |e, out| {
-        let edge = &edges[e as usize];
+/// Counters of quad binning, per task.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct QuadBinCounts {
+    quads: u64,
+    culled_face: u64,
+    before: u64,
+    culled_bin: u64,
+}
+
+impl std::ops::AddAssign for QuadBinCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.quads += o.quads;
+        self.culled_face += o.culled_face;
+        self.before += o.before;
+        self.culled_bin += o.culled_bin;
+    }
+}
+
+/// Quad binning: every silhouette edge's quad into the bins its face-wide width reaches, refined by
+/// each bin's farthest sample.
+struct QuadBinner<'a> {
+    edges: &'a [EdgeRecord],
+    light: &'a SismLight,
+    grid: &'a Grid,
+}
+
+impl BinItems for QuadBinner<'_> {
+    type Counts = QuadBinCounts;
+    #[inline(always)]
+    fn emit<S: Simd>(&self, s: S, e: u32, out: &mut Vec<(u32, u32)>, counts: &mut QuadBinCounts) {
+        let grid = self.grid;
+        let b = grid.params.bin_columns;
+        let edge = &self.edges[e as usize];
+        s.scalar_read(std::slice::from_ref(edge));
+        let pairs_before = out.len();
         for (f, g) in grid.faces.iter().enumerate().filter(|(_, g)| g.samples > 0) {
-            quads.fetch_add(1, Relaxed);
-            let r = light_radius * widen[f];
+            counts.quads += 1;
+            // Two endpoints into the face, the near clip, the projection and the width (~40).
+            s.scalar_ops(40);
+            let r = self.light.face_radius(f);
             let Some(qg) = quad_geometry(g, edge).filter(|qg| qg.z_near < g.z_max) else {
-                culled_face.fetch_add(1, Relaxed);
+                counts.culled_face += 1;
                 continue;
             };
             let w = r * (1.0 / qg.z_near - 1.0 / g.z_max);
             let (c0, c1) = g.column_range(qg.a.min(qg.b) - w, qg.a.max(qg.b) + w);
             if c0.x >= c1.x || c0.y >= c1.y {
-                culled_face.fetch_add(1, Relaxed);
+                counts.culled_face += 1;
                 continue;
             }
-            for bin in bins_of_columns(g, b, c0, c1) {
+            for bin in g.bins_of_columns(b, c0, c1) {
                 let bn = &grid.bins[bin];
+                s.scalar_ops(4);
                 if bn.samples.is_empty() {
                     continue;
                 }
-                before.fetch_add(1, Relaxed);
+                counts.before += 1;
+                // The bin's refined width and the segment-rectangle distance (~30).
+                s.scalar_ops(30);
                 let w_bin = r * (1.0 / qg.z_near - 1.0 / bn.z_max);
                 if w_bin <= 0.0 || segment_rect_distance(qg.a, qg.b, bn.uv_min, bn.uv_max) > w_bin {
-                    culled_bin.fetch_add(1, Relaxed);
+                    counts.culled_bin += 1;
                     continue;
                 }
                 out.push((bin as u32, e));
             }
         }
-    });
+        s.scalar_ops(2 * (out.len() - pairs_before) as u64);
+    }
+}
+
+/// Bins the silhouette edges' penumbra quads (steps `bin` and `lists`).
+pub fn bin_quads(
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
+    silhouettes: &Silhouettes,
+    stats: &mut PenumbraStats,
+) -> BinLists {
+    let edges = &silhouettes.edges;
+    let binner = QuadBinner {
+        edges,
+        light: inputs.light,
+        grid: inputs.grid,
+    };
+    let (lists, c) = bin_items(phase, &binner, inputs.grid.bins.len(), edges.len());
     stats.silhouettes += edges.len() as u64;
-    stats.quads += quads.into_inner();
-    stats.quads_culled_face += culled_face.into_inner();
-    stats.quad_bin_pairs_before_culling += before.into_inner();
-    stats.quad_bin_pairs_culled_by_bin_depth += culled_bin.into_inner();
+    stats.quads += c.quads;
+    stats.quads_culled_face += c.culled_face;
+    stats.quad_bin_pairs_before_culling += c.before;
+    stats.quad_bin_pairs_culled_by_bin_depth += c.culled_bin;
     stats.quad_bin_pairs += lists.pairs() as u64;
     lists
 }
 
-/// Sum of the signed edge terms at every sample (sorted order), computed bin by bin.
-pub fn occlusion(
-    edges: &[EdgeRecord],
-    light_radius: f32,
-    widen: &[f32],
-    grid: &Grid,
-    lists: &BinLists,
+/// Sum of the signed edge terms at every sample (sorted order), one task per bin part (step `eq3`).
+pub fn edge_sums(
+    phase: &mut Phase,
+    inputs: &StageInputs<'_>,
+    occluders: &Occluders<'_>,
     stats: &mut PenumbraStats,
-    exec: Exec,
-) -> (Vec<f32>, Vec<TaskRecord>) {
+) -> Vec<f32> {
+    let grid = inputs.grid;
+    let lists = occluders.quads;
     let mut sums = vec![0f32; grid.samples.pixel.len()];
     let parts = bin_parts(grid, lists);
-    let records = run_parts(&mut sums, &parts, stats, exec, |part, out| PenumbraBin {
-        edges,
-        light_radius,
-        widen: widen[grid.bins[part.bin].face as usize],
+    run_parts(phase, "eq3", &mut sums, &parts, stats, |part, out| PenumbraBin {
+        edges: &occluders.silhouettes.edges,
+        light: inputs.light,
         grid,
         part,
         quads: lists.of(part.bin),
         out,
     });
-    (sums, records)
+    sums
 }
 
 /// Runs one penumbra task per part (from [`bin_parts`]; `task` builds it from the part and the part's
-/// slice of `data`, in sorted-sample order), folds the tasks' counters into `stats` and returns their
-/// records in task order.
+/// slice of `data`, in sorted-sample order) as step `step` of `phase`, and folds the tasks' counters
+/// into `stats`.
 pub fn run_parts<'a, T, K, F>(
+    phase: &mut Phase,
+    step: &str,
     data: &'a mut [T],
     parts: &'a [BinPart],
     stats: &mut PenumbraStats,
-    exec: Exec,
     task: F,
-) -> Vec<TaskRecord>
-where
+) where
     T: Send,
-    K: Kernel<Output = ([u64; 3], Vec<u32>)>,
+    K: Kernel<Output = ([u64; 3], Vec<u32>)> + Send,
     F: Fn(&'a BinPart, &'a mut [T]) -> K + Sync,
 {
-    let (counters, records): BinOutputs<[u64; 3]> = split_by_parts(data, parts)
-        .into_par_iter()
-        .zip(parts)
-        .map(|(out, part)| run_task(exec, task(part, out)))
-        .unzip();
+    let counters = phase.run_par(
+        step,
+        Grid::split_samples(data, parts.iter().map(|p| p.samples.clone()))
+            .into_par_iter()
+            .zip(parts)
+            .map(|(out, part)| task(part, out)),
+    );
     stats.tasks += parts.len() as u64;
     for c in &counters {
         stats.add_bin(c.0);
     }
     stats.set_quads_per_sample(counters.iter().map(|c| &c.1));
-    records.into_iter().flatten().collect()
 }
-
-/// Task kind of penumbra bins in counting records.
-pub const TASK_PENUMBRA_BIN: u32 = 3;
 
 /// The per-bin penumbra task.
 pub struct PenumbraBin<'a> {
     pub edges: &'a [EdgeRecord],
-    pub light_radius: f32,
-    pub widen: f32,
+    pub light: &'a SismLight,
     pub grid: &'a Grid,
     pub part: &'a BinPart,
     pub quads: &'a [u32],
@@ -297,19 +348,13 @@ pub struct QuadInBin {
     pub r: f32,
 }
 
-/// Prepares edge `e`'s quad for bin `bin` of a face widened by `widen`; `None` when it misses.
+/// Prepares edge `e`'s quad for bin `bin`; `None` when it misses.
 #[inline]
-pub fn quad_in_bin(
-    grid: &Grid,
-    bin: usize,
-    e: &EdgeRecord,
-    light_radius: f32,
-    widen: f32,
-) -> Option<QuadInBin> {
+pub fn quad_in_bin(grid: &Grid, bin: usize, e: &EdgeRecord, light: &SismLight) -> Option<QuadInBin> {
     let bn = &grid.bins[bin];
     let g = &grid.faces[bn.face as usize];
     let qg = quad_geometry(g, e)?;
-    let r = light_radius * widen * (1.0 + 1e-4);
+    let r = light.wedge_radius(bn.face as usize);
     let inv_near = 1.0 / qg.z_near;
     let w_bin = r * (inv_near - 1.0 / bn.z_max);
     let (c0, c1) = g.column_range(qg.a.min(qg.b) - w_bin, qg.a.max(qg.b) + w_bin);
@@ -365,7 +410,7 @@ pub fn select_in_wedge<S: Simd>(
         let lo = g.uv_min + UVec2::new(q.c0.x, row).as_vec2() * g.cell_size;
         let hi = g.uv_min + UVec2::new(q.c1.x, row + 1).as_vec2() * g.cell_size;
         let d = segment_rect_distance(q.a, q.b, lo, hi);
-        let (first, end) = row_span(grid, bin, q.c0, q.c1, row, 0);
+        let (first, end) = grid.row_span(bin, q.c0, q.c1, row, 0);
         let inv_enter = q.inv_near - d / q.r;
         s.scalar_ops(40);
         if inv_enter <= 1.0 / bn.z_max {
@@ -373,8 +418,7 @@ pub fn select_in_wedge<S: Simd>(
             culled[1] += (end - first) as u64;
             continue;
         }
-        let (start, _) = row_span(
-            grid,
+        let (start, _) = grid.row_span(
             bin,
             q.c0,
             q.c1,
@@ -501,7 +545,7 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
             (bn.column0.x + grid.params.bin_columns).min(g.columns.x),
         );
         for row in whole.rows.clone() {
-            let (start, end) = row_span(grid, bin, UVec2::new(c0, row), UVec2::new(c1, row + 1), row, 0);
+            let (start, end) = grid.row_span(bin, UVec2::new(c0, row), UVec2::new(c1, row + 1), row, 0);
             if start < end {
                 parts.push(BinPart {
                     bin,
@@ -514,26 +558,12 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
     parts
 }
 
-/// Disjoint mutable slices of `data` (sorted order) for `parts` (in sorted order, non-overlapping).
-pub fn split_by_parts<'a, T>(mut data: &'a mut [T], parts: &[BinPart]) -> Vec<&'a mut [T]> {
-    let mut at = 0;
-    let mut out = Vec::with_capacity(parts.len());
-    for p in parts {
-        let (_, rest) = data.split_at_mut(p.samples.start - at);
-        let (head, tail) = rest.split_at_mut(p.samples.len());
-        out.push(head);
-        data = tail;
-        at = p.samples.end;
-    }
-    out
-}
-
 impl Kernel for PenumbraBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
     type Output = ([u64; 3], Vec<u32>);
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
-        s.begin_task(TASK_PENUMBRA_BIN);
+        s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
         let mut reached = vec![0u32; positions.0.len()];
         // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
@@ -544,11 +574,11 @@ impl Kernel for PenumbraBin<'_> {
         for &e in self.quads {
             let edge = &self.edges[e as usize];
             s.scalar_ops(60);
-            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light_radius, self.widen) else {
+            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light) else {
                 continue;
             };
             let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
-            add_edge_terms(s, &selected, n, positions, edge, self.light_radius, self.out);
+            add_edge_terms(s, &selected, n, positions, edge, self.light.radius, self.out);
             count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;
         }

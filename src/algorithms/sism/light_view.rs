@@ -8,7 +8,9 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use sism_simd::{Kernel, Simd};
 
+use crate::exec::{task_kind, Phase};
 use crate::scene::shapes::orthonormal_basis;
 
 /// Largest half-angle (degrees) of the cone of receiver directions one frustum may cover. Beyond it the
@@ -85,28 +87,37 @@ pub fn cube_face_of(q: Vec3) -> usize {
     }
 }
 
+/// Points per task of the fit's steps.
+pub const FIT_CHUNK: usize = 65_536;
+
 /// Fits the light view to receiver positions `points` (relative to the light centre, none at it) and
-/// returns it with each point's face index.
-pub fn fit(points: &[Vec3]) -> (LightView, Vec<u8>) {
+/// returns it with each point's face index. Steps of `phase`: `fit` (the mean unit direction, per
+/// chunk in f64, added in chunk order: the same axis for any thread count), `cone` (is every
+/// direction within [`MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG`] of it?) and, for a cube, `faces`.
+pub fn fit(phase: &mut Phase, points: &[Vec3]) -> (LightView, Vec<u8>) {
     // The mean unit direction is the cone's axis; if every direction is within the half-angle limit of
-    // it, one frustum serves. Summation in a fixed order keeps the choice deterministic.
-    // Per-chunk sums in f64, added in chunk order: the same axis for any thread count.
-    let mean = points
-        .par_chunks(65_536)
-        .map(|c| {
-            c.iter()
-                .fold(DVec3::ZERO, |acc, q| acc + q.normalize_or_zero().as_dvec3())
-        })
-        .collect::<Vec<_>>()
+    // it, one frustum serves.
+    let mean = phase
+        .run_par(
+            "fit",
+            points
+                .par_chunks(FIT_CHUNK)
+                .map(|points| MeanDirection { points }),
+        )
         .into_iter()
         .fold(DVec3::ZERO, |a, b| a + b)
         .as_vec3();
     if let Some(axis) = mean.try_normalize() {
         let cos_limit = MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG.to_radians().cos();
-        if points
-            .par_iter()
-            .all(|q| q.normalize_or_zero().dot(axis) >= cos_limit)
-        {
+        let within = phase.run_par(
+            "cone",
+            points.par_chunks(FIT_CHUNK).map(|points| WithinCone {
+                points,
+                axis,
+                cos_limit,
+            }),
+        );
+        if within.iter().all(|&w| w) {
             let (right, up) = orthonormal_basis(axis);
             let view = LightView {
                 faces: vec![LightFace { axis, right, up }],
@@ -116,25 +127,102 @@ pub fn fit(points: &[Vec3]) -> (LightView, Vec<u8>) {
         }
     }
     let faces = cube_faces();
-    let ids = points.par_iter().map(|&q| cube_face_of(q) as u8).collect();
+    let mut ids = vec![0u8; points.len()];
+    phase.run_par(
+        "faces",
+        ids.par_chunks_mut(FIT_CHUNK)
+            .zip(points.par_chunks(FIT_CHUNK))
+            .map(|(ids, points)| CubeFaces { points, ids }),
+    );
     (LightView { faces, is_cube: true }, ids)
+}
+
+/// Step `fit`: the sum of a chunk's unit directions, in f64.
+struct MeanDirection<'a> {
+    points: &'a [Vec3],
+}
+
+impl Kernel for MeanDirection<'_> {
+    type Output = DVec3;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> DVec3 {
+        s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
+        s.scalar_read(self.points);
+        let sum = self
+            .points
+            .iter()
+            .fold(DVec3::ZERO, |acc, q| acc + q.normalize_or_zero().as_dvec3());
+        // Per point: the length, a division and three widening adds (~12).
+        s.scalar_ops(12 * self.points.len() as u64);
+        s.end_task();
+        sum
+    }
+}
+
+/// Step `cone`: is every direction of a chunk within the cone?
+struct WithinCone<'a> {
+    points: &'a [Vec3],
+    axis: Vec3,
+    cos_limit: f32,
+}
+
+impl Kernel for WithinCone<'_> {
+    type Output = bool;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> bool {
+        s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
+        s.scalar_read(self.points);
+        let all = self
+            .points
+            .iter()
+            .all(|q| q.normalize_or_zero().dot(self.axis) >= self.cos_limit);
+        s.scalar_ops(12 * self.points.len() as u64);
+        s.end_task();
+        all
+    }
+}
+
+/// Step `faces`: the cube face of each point of a chunk.
+struct CubeFaces<'a> {
+    points: &'a [Vec3],
+    ids: &'a mut [u8],
+}
+
+impl Kernel for CubeFaces<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
+        s.scalar_read(self.points);
+        for (id, &q) in self.ids.iter_mut().zip(self.points) {
+            *id = cube_face_of(q) as u8;
+        }
+        s.scalar_ops(8 * self.points.len() as u64);
+        s.scalar_write(self.ids);
+        s.end_task();
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::exec::{Exec, FrameLog};
+
+    fn fit_native(points: &[Vec3]) -> (LightView, Vec<u8>) {
+        FrameLog::new(Exec::Native).phase("fit", "fit", |p| fit(p, points))
+    }
 
     #[test]
     fn narrow_cone_gets_one_face_wide_spread_gets_a_cube() {
         let narrow: Vec<Vec3> = (0..50).map(|i| Vec3::new(i as f32 * 0.01, -1.0, 0.2)).collect();
-        let (view, ids) = fit(&narrow);
+        let (view, ids) = fit_native(&narrow);
         assert_eq!(view.faces.len(), 1);
         assert!(ids.iter().all(|&i| i == 0));
         for q in &narrow {
             assert!(view.faces[0].to_face(*q).z > 0.0);
         }
         let wide = vec![Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::new(0.1, -1.0, 0.0)];
-        let (view, ids) = fit(&wide);
+        let (view, ids) = fit_native(&wide);
         assert!(view.is_cube);
         assert_eq!(ids, vec![0, 1, 2, 3]);
     }

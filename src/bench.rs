@@ -1,0 +1,335 @@
+//! Run time against error: a high-spp reference render ("truth") once, then every [`Candidate`] —
+//! each registered algorithm at its defaults, or once per value of its swept parameter (the
+//! reference's `spp`) — rendered `repeats` times, timed, and scored against the truth with
+//! [`metrics::compare`].
+//!
+//! Time is the `time.total` counter of [`RenderResult::stats`]: host wall time of the whole
+//! [`render::render`] call after the scene is loaded, so it includes the per-render BVH build of the
+//! reference and the scene preparation of SISM. The median over the repeats is reported.
+//!
+//! The candidates come from the registry ([`Algorithm::bench`]): an algorithm joins the comparison
+//! with its registry line.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::algorithms::{self, Algorithm, BenchPlan, ParamError, Params};
+use crate::frame::VisibilityImage;
+use crate::metrics::{self, ErrorReport};
+use crate::render::{self, RenderOptions, RenderResult};
+use crate::scene::Scene;
+
+/// Seed of the reference renders being timed.
+pub const SWEEP_SEED: u64 = 0;
+/// Seed of the truth render, distinct from [`SWEEP_SEED`] so the truth's jitter is independent of
+/// the jitter of the renders scored against it.
+pub const TRUTH_SEED: u64 = 0x7472_7574_6800_0001;
+
+/// One configuration in the time-vs-error comparison.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    pub algorithm: &'static Algorithm,
+    pub params: Params,
+    /// The swept setting, as printed in the table ("-" when there is none).
+    pub setting: String,
+    /// Label drawn beside the point in the plot (empty for none).
+    pub label: String,
+}
+
+/// The candidates of the comparison, in registry order: each algorithm's [`BenchPlan`], with the
+/// values of a swept parameter replaced where `sweeps` names its key (`("spp", ["4", "16"])`; values
+/// are sorted numerically when they are numbers, and de-duplicated).
+pub fn candidates(sweeps: &[(&str, Vec<String>)]) -> Result<Vec<Candidate>, ParamError> {
+    let mut list = Vec::new();
+    for &a in algorithms::REGISTRY {
+        match a.bench {
+            BenchPlan::Skip => {}
+            BenchPlan::Defaults => list.push(Candidate {
+                algorithm: a,
+                params: a.params(&[])?,
+                setting: "-".into(),
+                label: String::new(),
+            }),
+            BenchPlan::Sweep { key, values } => {
+                let mut values: Vec<String> = match sweeps.iter().find(|(k, _)| *k == key) {
+                    Some((_, v)) => v.clone(),
+                    None => values.iter().map(|v| v.to_string()).collect(),
+                };
+                values.sort_by(|x, y| match (x.parse::<f64>(), y.parse::<f64>()) {
+                    (Ok(a), Ok(b)) => a.total_cmp(&b),
+                    _ => x.cmp(y),
+                });
+                values.dedup();
+                for v in values {
+                    let mut given = vec![(key.to_string(), v.clone())];
+                    if a.param("seed").is_some() {
+                        given.push(("seed".into(), SWEEP_SEED.to_string()));
+                    }
+                    list.push(Candidate {
+                        algorithm: a,
+                        params: a.params(&given)?,
+                        label: if key == "spp" {
+                            format!("{v} spp")
+                        } else {
+                            format!("{key}={v}")
+                        },
+                        setting: v,
+                    });
+                }
+            }
+        }
+    }
+    Ok(list)
+}
+
+/// Where the truth came from.
+#[derive(Clone, Debug, Serialize)]
+pub struct TruthInfo {
+    /// Samples per receiver of the truth render (`None` when read from a file).
+    pub spp: Option<u32>,
+    /// Seed of the truth render (`None` when read from a file).
+    pub seed: Option<u64>,
+    /// The PFM the truth was read from, if any.
+    pub file: Option<PathBuf>,
+    /// Host wall time of the truth render, ms (`None` when read from a file).
+    pub time_ms: Option<f64>,
+}
+
+/// Renders the truth: the reference at `spp` with [`TRUTH_SEED`].
+pub fn render_truth(
+    scene: &Scene,
+    spp: u32,
+    progress: bool,
+) -> Result<(RenderResult, TruthInfo), ParamError> {
+    let reference = &algorithms::reference::REFERENCE;
+    let params = reference.params(&[
+        ("spp".into(), spp.to_string()),
+        ("seed".into(), TRUTH_SEED.to_string()),
+    ])?;
+    let t0 = Instant::now();
+    let result = render::render(
+        scene,
+        reference,
+        &params,
+        &RenderOptions {
+            progress,
+            ..Default::default()
+        },
+    );
+    let time_ms = total_ms(&result, t0);
+    let info = TruthInfo {
+        spp: Some(spp),
+        seed: Some(TRUTH_SEED),
+        file: None,
+        time_ms: Some(time_ms),
+    };
+    Ok((result, info))
+}
+
+/// One candidate's measurements.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    pub algorithm: String,
+    pub family: String,
+    pub setting: String,
+    pub label: String,
+    /// Every parameter, `key=value`.
+    pub params: String,
+    /// `time.total` of each repeat, ms.
+    pub times_ms: Vec<f64>,
+    /// Median of `times_ms`.
+    pub median_ms: f64,
+    /// Error of the first repeat's image against the truth.
+    pub error: ErrorReport,
+}
+
+/// Everything a bench run measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub scene: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub triangles: usize,
+    pub repeats: u32,
+    pub host_threads: usize,
+    pub simd_backend: String,
+    /// What the times measure.
+    pub timing: String,
+    pub truth: TruthInfo,
+    pub rows: Vec<BenchRow>,
+}
+
+const TIMING: &str = "median over repeats of the render's time.total stat: host wall time of render() \
+after scene load, including the reference's BVH build and SISM's scene preparation";
+
+/// A failure of the comparison.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("repeats must be at least 1")]
+    NoRepeats,
+    #[error("nothing to bench")]
+    NoCandidates,
+    #[error("the truth is {truth_w}x{truth_h}, the bench renders {width}x{height}")]
+    TruthSize {
+        truth_w: u32,
+        truth_h: u32,
+        width: u32,
+        height: u32,
+    },
+    #[error("scoring {algorithm} {setting} against the truth: {source}")]
+    Score {
+        algorithm: String,
+        setting: String,
+        #[source]
+        source: anyhow::Error,
+    },
+}
+
+/// Runs `candidates` on `scene` against `truth`, each `repeats` times, with a progress bar when
+/// `progress` is set.
+pub fn bench_scene(
+    scene: &Scene,
+    candidates: &[Candidate],
+    truth: &VisibilityImage,
+    truth_info: TruthInfo,
+    repeats: u32,
+    progress: bool,
+) -> Result<BenchReport, BenchError> {
+    if repeats == 0 {
+        return Err(BenchError::NoRepeats);
+    }
+    if candidates.is_empty() {
+        return Err(BenchError::NoCandidates);
+    }
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    if (truth.width, truth.height) != (width, height) {
+        return Err(BenchError::TruthSize {
+            truth_w: truth.width,
+            truth_h: truth.height,
+            width,
+            height,
+        });
+    }
+    let bar = crate::progress::bar((candidates.len() as u64) * repeats as u64, "bench", progress);
+    let mut rows = Vec::with_capacity(candidates.len());
+    for c in candidates {
+        bar.set_message(format!("{} {}", c.algorithm.name, c.setting));
+        let mut times_ms = Vec::with_capacity(repeats as usize);
+        let mut first: Option<VisibilityImage> = None;
+        for _ in 0..repeats {
+            let t0 = Instant::now();
+            let result = render::render(scene, c.algorithm, &c.params, &RenderOptions::default());
+            times_ms.push(total_ms(&result, t0));
+            first.get_or_insert(result.visibility);
+            bar.inc(1);
+        }
+        let image = first.expect("repeats >= 1");
+        let error = metrics::compare(truth, &image).map_err(|e| BenchError::Score {
+            algorithm: c.algorithm.name.into(),
+            setting: c.setting.clone(),
+            source: e.into(),
+        })?;
+        rows.push(BenchRow {
+            algorithm: c.algorithm.name.into(),
+            family: c.algorithm.family.name().into(),
+            setting: c.setting.clone(),
+            label: c.label.clone(),
+            params: c.params.describe(),
+            median_ms: median(&times_ms),
+            times_ms,
+            error,
+        });
+    }
+    bar.finish_and_clear();
+    Ok(BenchReport {
+        scene: scene.source.clone(),
+        width,
+        height,
+        triangles: scene.triangle_count(),
+        repeats,
+        host_threads: rayon::current_num_threads(),
+        simd_backend: sism_simd::selected_backend().name().to_string(),
+        timing: TIMING.into(),
+        truth: truth_info,
+        rows,
+    })
+}
+
+/// The render's `time.total` stat, or the wall time since `t0` if a render does not report it.
+fn total_ms(result: &RenderResult, t0: Instant) -> f64 {
+    result
+        .stats
+        .get("time.total")
+        .unwrap_or_else(|| t0.elapsed().as_secs_f64() * 1e3)
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The columns of the table and of `bench.csv`.
+pub const CSV_HEADER: &str =
+    "algorithm,setting,median_ms,mae,rmse,p99,penumbra_mae,max,share_over_0_1,compared,penumbra_pixels";
+
+/// `bench.csv`: a header line, then one line per candidate.
+pub fn to_csv(report: &BenchReport) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for r in &report.rows {
+        let e = &r.error;
+        s += &format!(
+            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{}\n",
+            r.algorithm,
+            r.setting,
+            r.median_ms,
+            e.mae,
+            e.rmse,
+            e.p99,
+            e.penumbra_mae,
+            e.max,
+            e.share_over_0_1,
+            e.compared,
+            e.penumbra_pixels
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+    }
+
+    #[test]
+    fn candidates_sweep_sorted_then_sism() {
+        let c = candidates(&[("spp", vec!["64".into(), "4".into(), "16".into(), "4".into()])]).unwrap();
+        let names: Vec<_> = c.iter().map(|c| (c.algorithm.name, c.setting.as_str())).collect();
+        assert_eq!(
+            names,
+            [
+                ("reference", "4"),
+                ("reference", "16"),
+                ("reference", "64"),
+                ("sism", "-"),
+                ("sism-independent", "-"),
+                ("sism-sampled", "-"),
+            ]
+        );
+    }
+}

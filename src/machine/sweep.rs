@@ -1,0 +1,81 @@
+//! Sweeps: one frame's records re-timed on many machines that vary cores, hardware threads per core
+//! and L2 subset sizes around a base configuration (the work of `sism study`, without the rendering,
+//! the files or the plots).
+
+use rayon::prelude::*;
+
+use super::{simulate, MachineConfig, MachineReport};
+use crate::exec::PhaseRecords;
+
+/// The axes of a sweep: every combination of the three lists (empty lists: the base's value).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SweepAxes {
+    /// Core counts.
+    pub cores: Vec<u32>,
+    /// Hardware threads per core.
+    pub threads: Vec<u32>,
+    /// L2 subset sizes per core, KB.
+    pub l2_kb: Vec<u32>,
+}
+
+/// One simulated configuration of a sweep.
+#[derive(Clone, Debug)]
+pub struct SweepPoint {
+    pub cores: u32,
+    pub threads: u32,
+    pub l2_kb: u32,
+    pub report: MachineReport,
+}
+
+/// The configurations of the sweep `axes` around `base`, threads outermost, cores innermost; each
+/// named `<base>-c<cores>-t<threads>-l2<kb>` and validated (the error names the point and the key).
+pub fn configurations(base: &MachineConfig, axes: &SweepAxes) -> Result<Vec<MachineConfig>, String> {
+    let or_base = |v: &[u32], b: u32| if v.is_empty() { vec![b] } else { v.to_vec() };
+    let cores = or_base(&axes.cores, base.cores);
+    let threads = or_base(&axes.threads, base.threads_per_core);
+    let l2s = or_base(&axes.l2_kb, base.l2_kb);
+    let mut out = Vec::with_capacity(cores.len() * threads.len() * l2s.len());
+    for &t in &threads {
+        for &l2 in &l2s {
+            for &c in &cores {
+                let mut m = base.clone();
+                m.cores = c;
+                m.threads_per_core = t;
+                m.l2_kb = l2;
+                m.name = format!("{}-c{c}-t{t}-l2{l2}", base.name);
+                m.validate()
+                    .map_err(|(k, msg)| format!("sweep point {}: `{k}` {msg}", m.name))?;
+                out.push(m);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Times `records` on every configuration (in parallel on the host; each replay is deterministic),
+/// calling `done` after each. Points come back in the configurations' order.
+pub fn run(records: &[PhaseRecords], configs: &[MachineConfig], done: impl Fn() + Sync) -> Vec<SweepPoint> {
+    configs
+        .par_iter()
+        .map(|m| {
+            let report = simulate(records, m);
+            done();
+            SweepPoint {
+                cores: m.cores,
+                threads: m.threads_per_core,
+                l2_kb: m.l2_kb,
+                report,
+            }
+        })
+        .collect()
+}
+
+/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
+pub fn speedup(points: &[SweepPoint], p: &SweepPoint) -> f64 {
+    let base = points
+        .iter()
+        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb)
+        .min_by_key(|q| q.cores)
+        .unwrap_or(p);
+    base.report.frame.cycles as f64 / p.report.frame.cycles.max(1) as f64
+}
