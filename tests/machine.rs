@@ -340,6 +340,7 @@ fn plate_on_larrabee_24_and_replay() {
             "light_samples.cone",
             "light_samples.faces",
             "light_samples.face_sort",
+            "light_samples.face_scatter",
             "light_samples.project",
             "grid.face_bounds",
             "grid.classify",

@@ -149,13 +149,13 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 /// The README's algorithm table (Markdown), generated from the registry.
 pub fn markdown_table() -> String {
     let mut s = String::from(
-        "| name | family | what | parameters (default, range) | `--machine` |\n|---|---|---|---|---|\n",
+        "| name | family | what | parameters: `key=default` (range) | `--machine` |\n|---|---|---|---|---|\n",
     );
     for a in REGISTRY.iter().filter(|a| a.family != Family::Test) {
         let params: Vec<String> = a
             .params
             .iter()
-            .map(|p| format!("`{}` ({}, {}): {}", p.key, p.default, p.range(), p.description))
+            .map(|p| format!("`{}={}` ({}): {}", p.key, p.default, p.range(), p.description))
             .collect();
         s += &format!(
             "| `{}` | {} | {} | {} | {} |\n",

@@ -35,7 +35,7 @@ impl ParamSpec {
     pub fn range(&self) -> String {
         match self.kind {
             ParamKind::Int { min, max } => format!("{min}..={max}"),
-            ParamKind::U64 => format!("0..={}", u64::MAX),
+            ParamKind::U64 => "any u64".into(),
             ParamKind::Float { min, max } => format!("[{min}, {max}]"),
             ParamKind::Choice(names) => names.join("|"),
         }
@@ -55,7 +55,7 @@ impl ParamSpec {
             ParamKind::U64 => t
                 .parse::<u64>()
                 .map(ParamValue::U64)
-                .map_err(|_| format!("`{t}` is not a whole number in {}", self.range())),
+                .map_err(|_| format!("`{t}` is not a whole number in 0..={}", u64::MAX)),
             ParamKind::Float { min, max } => {
                 let v: f64 = t.parse().map_err(|_| format!("`{t}` is not a number"))?;
                 if !v.is_finite() || v < min || v > max {

@@ -8,15 +8,15 @@ use anyhow::{ensure, Context};
 use sism::bench::{self, BenchReport, BenchRow, TruthInfo};
 use sism::output::{pfm, pictures};
 
-use super::{create_dir, load_scene, plot, print_stdout, write_file};
+use super::{create_dir, plot, print_stdout, write_file, SceneArgs};
 
 /// Largest spp accepted in the sweep (the reference's own bound).
 const MAX_SPP: u32 = 65_536;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene file (TOML: see the README's "Scene files").
-    scene: PathBuf,
+    #[command(flatten)]
+    scene: SceneArgs,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
@@ -29,12 +29,6 @@ pub struct Args {
     /// Score against this visibility PFM instead of rendering a truth.
     #[arg(long)]
     truth: Option<PathBuf>,
-    /// Override the scene's image width, pixels.
-    #[arg(long)]
-    width: Option<u32>,
-    /// Override the scene's image height, pixels.
-    #[arg(long)]
-    height: Option<u32>,
     /// Timed runs per configuration; the median is reported.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
@@ -72,7 +66,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--truth-spp {} is out of range (1..={MAX_SPP})",
         a.truth_spp
     );
-    let scene = load_scene(&a.scene, a.width, a.height)?;
+    let scene = a.scene.load()?;
     let candidates = bench::candidates(&[("spp", spp_list)])?;
     let out = create_dir(&a.out)?;
     let truth_dir = create_dir(&out.join("truth"))?;
@@ -266,14 +260,7 @@ fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
                 )
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 16))
-            .draw()
-            .map_err(|e| err(&e))?;
+        plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
     plot::save(path, rgb)

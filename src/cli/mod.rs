@@ -95,19 +95,34 @@ fn print_stdout(text: &str) -> anyhow::Result<()> {
     }
 }
 
-/// Loads a scene and applies `--width`/`--height`.
-fn load_scene(path: &Path, width: Option<u32>, height: Option<u32>) -> anyhow::Result<Scene> {
-    let mut scene = Scene::load(path)?;
-    if let Some(w) = width {
-        scene.camera.width = w;
+/// The scene a command renders, with the image-size overrides.
+#[derive(clap::Args, Clone, Debug)]
+struct SceneArgs {
+    /// Scene file (TOML: see the README's "Scene files").
+    scene: PathBuf,
+    /// Override the scene's image width, pixels.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Override the scene's image height, pixels.
+    #[arg(long)]
+    height: Option<u32>,
+}
+
+impl SceneArgs {
+    /// Loads the scene and applies `--width`/`--height`.
+    fn load(&self) -> anyhow::Result<Scene> {
+        let mut scene = Scene::load(&self.scene)?;
+        if let Some(w) = self.width {
+            scene.camera.width = w;
+        }
+        if let Some(h) = self.height {
+            scene.camera.height = h;
+        }
+        if let Err((key, msg)) = scene.camera.validate() {
+            anyhow::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
+        }
+        Ok(scene)
     }
-    if let Some(h) = height {
-        scene.camera.height = h;
-    }
-    if let Err((key, msg)) = scene.camera.validate() {
-        anyhow::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
-    }
-    Ok(scene)
 }
 
 /// `--algo`'s values: the registry's algorithms (only those on the simd kernels when `kernels_only`),

@@ -41,8 +41,35 @@ pub fn canvas() -> Vec<u8> {
 
 /// Writes a drawn [`canvas`] to `path` as PNG.
 pub fn save(path: &Path, rgb: Vec<u8>) -> anyhow::Result<()> {
-    image::RgbImage::from_raw(PLOT_SIZE.0, PLOT_SIZE.1, rgb)
-        .expect("canvas sized by PLOT_SIZE")
+    let Some(image) = image::RgbImage::from_raw(PLOT_SIZE.0, PLOT_SIZE.1, rgb) else {
+        anyhow::bail!(
+            "cannot write {}: the canvas is not {}x{}",
+            path.display(),
+            PLOT_SIZE.0,
+            PLOT_SIZE.1
+        );
+    };
+    image
         .save(path)
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+}
+
+/// Draws the chart's legend (series labels) at `position`, in every plot's style.
+pub fn legend<'a, DB, CT>(
+    chart: &mut plotters::chart::ChartContext<'a, DB, CT>,
+    position: plotters::chart::SeriesLabelPosition,
+) -> Result<(), String>
+where
+    DB: plotters::prelude::DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate,
+{
+    use plotters::prelude::*;
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(|e| e.to_string())
 }

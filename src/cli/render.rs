@@ -7,12 +7,12 @@ use anyhow::Context;
 use sism::machine::{self, MachineConfig};
 use sism::render::{self, RenderOptions};
 
-use super::{algorithm, algorithm_values, load_scene, ParamArgs};
+use super::{algorithm, algorithm_values, ParamArgs, SceneArgs};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene file (TOML: see the README's "Scene files" and ../shared/docs/CONTRACTS.md).
-    scene: PathBuf,
+    #[command(flatten)]
+    scene: SceneArgs,
     /// Algorithm (see `sism algorithms` for each one's parameters).
     #[arg(long, default_value = "reference", value_parser = algorithm_values(false))]
     algo: String,
@@ -21,12 +21,6 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// Override the scene's image width, pixels.
-    #[arg(long)]
-    width: Option<u32>,
-    /// Override the scene's image height, pixels.
-    #[arg(long)]
-    height: Option<u32>,
     /// Time the frame on a modelled many-core chip: a preset (larrabee-8/16/24/32/48/64) or a
     /// machine TOML file. Runs the kernels under the counting context (same image, bit for bit) and
     /// also writes machine.toml and records.bin (for `sism replay`). Needs an algorithm that runs on
@@ -39,7 +33,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let scene = load_scene(&a.scene, a.width, a.height)?;
+    let scene = a.scene.load()?;
     let algo = algorithm(&a.algo)?;
     let params = a.params.resolve(algo)?;
     if let Some(m) = a.machine {

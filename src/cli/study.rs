@@ -10,13 +10,13 @@ use sism::machine::{self, MachineConfig};
 use sism::render::{self, RenderOptions};
 
 use super::{
-    algorithm, algorithm_values, create_dir, load_scene, parse_list, print_stdout, write_file, ParamArgs,
+    algorithm, algorithm_values, create_dir, parse_list, print_stdout, write_file, ParamArgs, SceneArgs,
 };
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Scene file (TOML: see the README's "Scene files").
-    scene: PathBuf,
+    #[command(flatten)]
+    scene: SceneArgs,
     /// Core counts, comma-separated.
     #[arg(long, default_value = "1,2,4,8,16,24,32,48,64")]
     cores: String,
@@ -37,19 +37,13 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/study")]
     out: PathBuf,
-    /// Override the scene's image width, pixels.
-    #[arg(long)]
-    width: Option<u32>,
-    /// Override the scene's image height, pixels.
-    #[arg(long)]
-    height: Option<u32>,
     /// No progress bar and no table.
     #[arg(long)]
     quiet: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let scene = load_scene(&a.scene, a.width, a.height)?;
+    let scene = a.scene.load()?;
     let algo = algorithm(&a.algo)?;
     let params = a.params.resolve(algo)?;
     let base = MachineConfig::resolve(&a.machine).context("--machine")?;
@@ -233,14 +227,7 @@ mod plots {
                             + Circle::new((0, 0), 4, colour.filled())
                     });
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperLeft)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 16))
-                .draw()
-                .map_err(|e| err(&e))?;
+            crate::cli::plot::legend(&mut chart, SeriesLabelPosition::UpperLeft).map_err(|e| err(&e))?;
             root.present().map_err(|e| err(&e))?;
         }
         save(path, rgb)
@@ -337,14 +324,7 @@ mod plots {
                     )
                 }))
                 .map_err(|e| err(&e))?;
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 16))
-                .draw()
-                .map_err(|e| err(&e))?;
+            crate::cli::plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
             root.present().map_err(|e| err(&e))?;
         }
         save(path, rgb)

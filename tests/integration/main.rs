@@ -5,6 +5,7 @@ mod closed_forms;
 mod convergence;
 mod golden;
 mod obj_loading;
+mod registry;
 mod shared_scenes;
 mod sism;
 mod util;

@@ -294,8 +294,10 @@ impl Grid {
 }
 
 /// Samples classified per chunk; the unit of the first counting-sort pass. Large enough that the
-/// per-chunk bin histograms and their prefix sum (bins x chunks) stay small.
-const CHUNK: usize = 65_536;
+/// per-chunk bin histograms and their prefix sum (bins x chunks) stay small, small enough that the
+/// modelled chip's cores all get a chunk. (The sorted order does not depend on it: a bin's samples
+/// keep their global order whatever the chunking.)
+const CHUNK: usize = 16_384;
 
 /// Lays the grid over `faces` and sorts `samples` (grouped by face, in face order) into it, as the
 /// steps of `phase`: `face_bounds` (per face the samples' image bounds and depth range), `classify`
@@ -316,12 +318,36 @@ pub fn build(phase: &mut Phase, faces: &[LightFace], samples: &[SampleIn], param
         ranges.push(start..end);
         start = end;
     }
-    let bounds = phase.run_par(
+    // Per face the image bounds and depth range of its samples, reduced over chunks (min and max are
+    // exact: the chunking does not change them).
+    let chunks: Vec<(usize, std::ops::Range<usize>)> = ranges
+        .iter()
+        .enumerate()
+        .flat_map(|(f, r)| {
+            (r.start..r.end)
+                .step_by(GATHER_CHUNK)
+                .map(move |a| (f, a..(a + GATHER_CHUNK).min(r.end)))
+        })
+        .collect();
+    let partial = phase.run_par(
         "face_bounds",
-        ranges.par_iter().map(|r| FaceBounds {
+        chunks.par_iter().map(|(_, r)| FaceBounds {
             samples: &samples[r.clone()],
         }),
     );
+    let mut bounds = vec![
+        (
+            Vec2::splat(f32::INFINITY),
+            Vec2::splat(f32::NEG_INFINITY),
+            f32::INFINITY,
+            0.0f32
+        );
+        faces.len()
+    ];
+    for ((f, _), (lo, hi, z0, z1)) in chunks.iter().zip(partial) {
+        let b = &mut bounds[*f];
+        *b = (b.0.min(lo), b.1.max(hi), b.2.min(z0), b.3.max(z1));
+    }
     // Per-face resolution from the face's sample count and image bounds.
     let mut face_grids = Vec::with_capacity(faces.len());
     let mut first_bin = 0u32;

@@ -7,7 +7,8 @@
 //!    away (which never enters the grid; one at the light centre has no direction to it and is treated
 //!    the same way), or a sample (its position relative to the light and `cos θ`).
 //! 2. `fit` and `cone` (and `faces` for a cube): the light view (see [`light_view`]).
-//! 3. `face_sort`: a stable counting sort by face (at most six faces), so each face keeps pixel order.
+//! 3. `face_sort` and `face_scatter` (a cube only; one face is already in order): a stable counting
+//!    sort by face (at most six faces), so each face keeps pixel order.
 //! 4. `project`: each sample's face coordinates, and per face the bounds that give its width factor.
 
 use std::mem::MaybeUninit;
@@ -26,8 +27,8 @@ use crate::scene::Light;
 /// Image rows per `classify` task.
 pub const BAND_ROWS: usize = 16;
 
-/// Samples per `project` task.
-pub const PROJECT_CHUNK: usize = 65_536;
+/// Samples per `face_sort`, `face_scatter` and `project` task (results do not depend on it).
+pub const CHUNK: usize = 16_384;
 
 /// What the light-samples stage produces.
 pub struct LightSamples {
@@ -75,13 +76,7 @@ pub fn build(phase: &mut Phase, receivers: &Receivers, light: &Light) -> LightSa
         pixels.extend(b.pixel);
     }
     let (view, face_of) = light_view::fit(phase, &points);
-    let order = phase.run(
-        "face_sort",
-        FaceSort {
-            face_of: &face_of,
-            faces: view.faces.len(),
-        },
-    );
+    let order = (view.faces.len() > 1).then(|| face_sort(phase, &face_of, view.faces.len()));
 
     // Projection into the faces, written in place in sorted order, with per-face bounds: the smallest
     // cos(angle to the axis) and the nearest distance of each face's samples.
@@ -90,10 +85,11 @@ pub fn build(phase: &mut Phase, receivers: &Receivers, light: &Light) -> LightSa
     let bounds: Vec<FaceBounds> = phase.run_par(
         "project",
         samples.spare_capacity_mut()[..n]
-            .par_chunks_mut(PROJECT_CHUNK)
-            .zip(order.par_chunks(PROJECT_CHUNK))
-            .map(|(out, order)| Project {
-                order,
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(k, out)| Project {
+                first: k * CHUNK,
+                order: order.as_deref().map(|o| &o[k * CHUNK..k * CHUNK + out.len()]),
                 points: &points,
                 cosines: &cosines,
                 pixels: &pixels,
@@ -103,8 +99,8 @@ pub fn build(phase: &mut Phase, receivers: &Receivers, light: &Light) -> LightSa
             }),
     );
     // SAFETY: the `project` tasks' output slices partition the first `n` elements of the spare
-    // capacity, and each task writes every element of its slice (one per index of its `order`
-    // chunk, which has the slice's length). Had one panicked, we would not get here.
+    // capacity, and each task writes every element of its slice (one per sorted position). Had one
+    // panicked, we would not get here.
     unsafe { samples.set_len(n) };
     // Width factor per face: the line of sight from a sample through an edge deviates from the axis by
     // at most the sample's own angle plus asin(r / distance).
@@ -184,38 +180,82 @@ impl Kernel for Classify<'_> {
     }
 }
 
-/// Step `face_sort`: the stable counting sort of the samples by face; returns each sorted position's
-/// sample index. (A general stable sort of the 40-byte samples costs a dozen copying passes.)
-struct FaceSort<'a> {
-    face_of: &'a [u8],
-    faces: usize,
+/// The stable counting sort of the samples by face: each sorted position's sample index. Step
+/// `face_sort` counts each chunk's faces; after the prefix sum (face-major, chunk-minor: stable),
+/// step `face_scatter` places each chunk's indices. (A general stable sort of the 40-byte samples
+/// costs a dozen copying passes.)
+fn face_sort(phase: &mut Phase, face_of: &[u8], faces: usize) -> Vec<u32> {
+    let counts: Vec<[u32; 6]> = phase.run_par(
+        "face_sort",
+        face_of.par_chunks(CHUNK).map(|face_of| FaceCount { face_of }),
+    );
+    let mut next: Vec<[u32; 6]> = vec![[0; 6]; counts.len()];
+    let mut running = 0u32;
+    for f in 0..faces {
+        for (k, c) in counts.iter().enumerate() {
+            next[k][f] = running;
+            running += c[f];
+        }
+    }
+    let mut order = vec![0u32; face_of.len()];
+    for (k, (face_of, next)) in face_of.chunks(CHUNK).zip(next).enumerate() {
+        phase.run(
+            "face_scatter",
+            FaceScatter {
+                first: (k * CHUNK) as u32,
+                face_of,
+                next,
+                order: &mut order,
+            },
+        );
+    }
+    order
 }
 
-impl Kernel for FaceSort<'_> {
-    type Output = Vec<u32>;
+/// Step `face_sort`: how many samples of a chunk each face has.
+struct FaceCount<'a> {
+    face_of: &'a [u8],
+}
+
+impl Kernel for FaceCount<'_> {
+    type Output = [u32; 6];
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> Vec<u32> {
+    fn run<S: Simd>(self, s: S) -> [u32; 6] {
         s.begin_task(task_kind::LIGHT_SAMPLES_FACE_SORT);
-        let mut next = vec![0usize; self.faces];
+        let mut counts = [0u32; 6];
         for &f in self.face_of {
-            next[f as usize] += 1;
+            counts[f as usize] += 1;
         }
-        let mut first = 0;
-        for n in next.iter_mut() {
-            (*n, first) = (first, first + *n);
-        }
-        let mut order = vec![0u32; self.face_of.len()];
-        for (k, &f) in self.face_of.iter().enumerate() {
-            order[next[f as usize]] = k as u32;
-            next[f as usize] += 1;
-        }
-        // Two passes over the faces: count (~2 per sample), place (~4 per sample).
-        s.scalar_ops(6 * self.face_of.len() as u64);
         s.scalar_read(self.face_of);
-        s.scalar_read(self.face_of);
-        s.scalar_write(&order);
+        s.scalar_ops(2 * self.face_of.len() as u64);
         s.end_task();
-        order
+        counts
+    }
+}
+
+/// Step `face_scatter`: a chunk's sample indices placed at their faces' next positions.
+struct FaceScatter<'a> {
+    first: u32,
+    face_of: &'a [u8],
+    next: [u32; 6],
+    order: &'a mut [u32],
+}
+
+impl Kernel for FaceScatter<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(mut self, s: S) {
+        s.begin_task(task_kind::LIGHT_SAMPLES_FACE_SORT);
+        for (k, &f) in self.face_of.iter().enumerate() {
+            let at = self.next[f as usize] as usize;
+            self.order[at] = self.first + k as u32;
+            s.scalar_write(&self.order[at..at + 1]);
+            self.next[f as usize] += 1;
+        }
+        s.scalar_read(self.face_of);
+        // Per sample: the face, its position, the store and the increment (~4).
+        s.scalar_ops(4 * self.face_of.len() as u64);
+        s.end_task();
     }
 }
 
@@ -227,7 +267,10 @@ struct FaceBounds {
 
 /// Step `project`: a chunk of sorted positions, projected into their faces.
 struct Project<'a> {
-    order: &'a [u32],
+    /// First sorted position of the chunk.
+    first: usize,
+    /// The sample index of each sorted position of the chunk (`None`: one face, already in order).
+    order: Option<&'a [u32]>,
     points: &'a [Vec3],
     cosines: &'a [f32],
     pixels: &'a [u32],
@@ -246,11 +289,17 @@ impl Kernel for Project<'_> {
             cos_min: vec![1.0f32; n_faces],
             dist_min: vec![f32::INFINITY; n_faces],
         };
-        s.scalar_read(self.order);
-        for (out, &k) in self.out.iter_mut().zip(self.order) {
-            let k = k as usize;
+        if let Some(order) = self.order {
+            s.scalar_read(order);
+        }
+        let n = self.out.len();
+        for (i, out) in self.out.iter_mut().enumerate() {
+            let k = match self.order {
+                Some(order) => order[i] as usize,
+                None => self.first + i,
+            };
             let (q, face) = (self.points[k], self.face_of[k]);
-            // Gathered by sample index: one line each (points, cosines, pixels, faces).
+            // By sample index: one line each (points, cosines, pixels), streamed when in order.
             s.scalar_read(&self.points[k..k + 1]);
             s.scalar_read(&self.cosines[k..k + 1]);
             s.scalar_read(&self.pixels[k..k + 1]);
@@ -270,7 +319,7 @@ impl Kernel for Project<'_> {
         }
         // Per sample: 3 dot products and 2 divisions (~14), the length (~6), the bounds (~4), the
         // record (~6).
-        s.scalar_ops(30 * self.order.len() as u64);
+        s.scalar_ops(30 * n as u64);
         s.scalar_touch(self.out.as_ptr() as usize, std::mem::size_of_val(self.out), true);
         s.end_task();
         b

@@ -87,8 +87,11 @@ pub fn cube_face_of(q: Vec3) -> usize {
     }
 }
 
-/// Points per task of the fit's steps.
+/// Points per task of the `fit` step (fixed: the mean's f64 partial sums follow it).
 pub const FIT_CHUNK: usize = 65_536;
+
+/// Points per task of the `cone` and `faces` steps (results do not depend on it).
+pub const TEST_CHUNK: usize = 16_384;
 
 /// Fits the light view to receiver positions `points` (relative to the light centre, none at it) and
 /// returns it with each point's face index. Steps of `phase`: `fit` (the mean unit direction, per
@@ -111,7 +114,7 @@ pub fn fit(phase: &mut Phase, points: &[Vec3]) -> (LightView, Vec<u8>) {
         let cos_limit = MAX_SINGLE_FRUSTUM_HALF_ANGLE_DEG.to_radians().cos();
         let within = phase.run_par(
             "cone",
-            points.par_chunks(FIT_CHUNK).map(|points| WithinCone {
+            points.par_chunks(TEST_CHUNK).map(|points| WithinCone {
                 points,
                 axis,
                 cos_limit,
@@ -130,8 +133,8 @@ pub fn fit(phase: &mut Phase, points: &[Vec3]) -> (LightView, Vec<u8>) {
     let mut ids = vec![0u8; points.len()];
     phase.run_par(
         "faces",
-        ids.par_chunks_mut(FIT_CHUNK)
-            .zip(points.par_chunks(FIT_CHUNK))
+        ids.par_chunks_mut(TEST_CHUNK)
+            .zip(points.par_chunks(TEST_CHUNK))
             .map(|(ids, points)| CubeFaces { points, ids }),
     );
     (LightView { faces, is_cube: true }, ids)
