@@ -6,12 +6,32 @@ use std::path::PathBuf;
 /// Everything that can be wrong with a scene, a mesh or a PFM image handed to sism.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
-    /// A file could not be opened or read.
-    #[error("cannot read {path}: {source}")]
-    Io {
+    /// A file could not be opened or read. (The OS error is in the message and not chained as a
+    /// source, so `{:#}` does not print it twice.)
+    #[error("cannot read {path}: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
+    /// A path names a directory, FIFO, device or socket where a file is needed.
+    #[error("{what} {path} is a {kind}, not a regular file")]
+    NotAFile {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        what: String,
+        kind: &'static str,
+    },
+    /// A file is larger than sism reads for its kind.
+    #[error("{what} {path} is {bytes} bytes; at most {max} are read")]
+    TooLarge {
+        path: PathBuf,
+        what: String,
+        bytes: u64,
+        max: u64,
+    },
+    /// A text file holds bytes that are not UTF-8.
+    #[error("{what} {path}, line {line} (byte {offset}): not valid UTF-8 text")]
+    NotUtf8 {
+        path: PathBuf,
+        what: String,
+        line: usize,
+        offset: usize,
     },
     /// The scene TOML does not parse, or has an unknown or mistyped key (the message carries line and
     /// column from the TOML parser).
@@ -41,10 +61,10 @@ pub enum InputError {
 
 impl InputError {
     /// Builds an [`InputError::Io`] for `path`.
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+    pub fn io(path: impl Into<PathBuf>, error: std::io::Error) -> Self {
         Self::Io {
             path: path.into(),
-            source,
+            error,
         }
     }
 }

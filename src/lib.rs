@@ -16,6 +16,7 @@ pub mod bvh;
 pub mod error;
 pub mod exec;
 pub mod frame;
+pub mod input;
 pub mod machine;
 pub mod metrics;
 pub mod output;

@@ -38,6 +38,37 @@ pub struct ErrorReport {
 pub enum CompareError {
     #[error("images differ in size: reference {0}x{1}, test {2}x{3}")]
     SizeMismatch(u32, u32, u32, u32),
+    /// A value outside the contract: `V` in [0, 1], NaN at a miss, -1 facing away.
+    #[error(
+        "{image} image, pixel ({x}, {y}) holds {value}: visibility values are in [0, 1], NaN (a miss) or -1 (facing away)"
+    )]
+    OutOfRange {
+        image: &'static str,
+        x: u32,
+        y: u32,
+        value: f32,
+    },
+    /// No pixel holds a visibility in both images.
+    #[error("no pixel holds a visibility in both images (reference: {reference} receivers, test: {test}): nothing to compare")]
+    NothingToCompare { reference: u64, test: u64 },
+}
+
+/// Checks that every value of `image` is a visibility, a miss (NaN) or facing away (-1).
+pub fn check_values(image: &VisibilityImage, which: &'static str) -> Result<(), CompareError> {
+    let w = image.width.max(1);
+    match image
+        .values
+        .iter()
+        .position(|&v| !(v.is_nan() || v == crate::frame::V_FACING_AWAY || (0.0..=1.0).contains(&v)))
+    {
+        None => Ok(()),
+        Some(k) => Err(CompareError::OutOfRange {
+            image: which,
+            x: k as u32 % w,
+            y: k as u32 / w,
+            value: image.values[k],
+        }),
+    }
 }
 
 /// Per-pixel |error| where both images hold receiver values, `None` elsewhere (for heat maps).
@@ -64,8 +95,11 @@ pub fn abs_error_map(
         .collect())
 }
 
-/// Compares `test` against `reference`.
+/// Compares `test` against `reference`: both must hold only contract values ([`check_values`]) and
+/// share at least one receiver.
 pub fn compare(reference: &VisibilityImage, test: &VisibilityImage) -> Result<ErrorReport, CompareError> {
+    check_values(reference, "reference")?;
+    check_values(test, "test")?;
     let errors = abs_error_map(reference, test)?;
     let mut abs: Vec<f32> = Vec::with_capacity(errors.len());
     let (mut sum, mut sum2, mut bad, mut pen_n, mut pen_sum) = (0.0f64, 0.0f64, 0u64, 0u64, 0.0f64);
@@ -83,7 +117,11 @@ pub fn compare(reference: &VisibilityImage, test: &VisibilityImage) -> Result<Er
     }
     let n = abs.len();
     if n == 0 {
-        return Ok(ErrorReport::default());
+        let receivers = |i: &VisibilityImage| i.values.iter().filter(|&&v| v >= 0.0).count() as u64;
+        return Err(CompareError::NothingToCompare {
+            reference: receivers(reference),
+            test: receivers(test),
+        });
     }
     let rank = ((0.99 * n as f64).ceil() as usize).clamp(1, n) - 1;
     let p99 = *abs.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1 as f64;
@@ -142,5 +180,32 @@ mod tests {
     #[test]
     fn size_mismatch_is_an_error() {
         assert!(compare(&img(vec![0.0; 2]), &img(vec![0.0; 3])).is_err());
+    }
+
+    #[test]
+    fn out_of_range_values_and_nothing_to_compare_are_errors() {
+        for bad in [f32::INFINITY, 7.0, 1e30, -0.5, 1.0001] {
+            let e = compare(&img(vec![0.5, 0.5]), &img(vec![0.5, bad])).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    CompareError::OutOfRange {
+                        image: "test",
+                        x: 1,
+                        ..
+                    }
+                ),
+                "{bad}: {e}"
+            );
+        }
+        let e = compare(&img(vec![f32::NAN; 3]), &img(vec![0.5; 3])).unwrap_err();
+        assert_eq!(
+            e,
+            CompareError::NothingToCompare {
+                reference: 0,
+                test: 3
+            }
+        );
+        assert!(e.to_string().contains("nothing to compare"));
     }
 }

@@ -381,7 +381,7 @@ impl LineStream {
                     return;
                 };
                 pos += n;
-                c + 2
+                c.saturating_add(2)
             } else {
                 1
             };
@@ -397,7 +397,7 @@ impl LineStream {
                     line = line.wrapping_add(delta as u64);
                     f(line, write);
                 }
-                heads.t += reps;
+                heads.t = heads.t.wrapping_add(reps);
                 heads.line[slot] = line;
                 heads.stamp[slot] = heads.t;
             } else {
@@ -408,6 +408,60 @@ impl LineStream {
                 }
             }
         }
+    }
+
+    /// Encodes `accesses` (`(line, is_write)` in order) as a stream, as a recorder would have.
+    pub fn encode(accesses: impl IntoIterator<Item = (u64, bool)>) -> LineStream {
+        let mut e = LineEncoder::default();
+        for (line, write) in accesses {
+            e.push(line, write);
+        }
+        e.finish()
+    }
+
+    /// Decodes the stream as [`LineStream::for_each`] does, but trusting nothing: calls
+    /// `f(line, is_write)` for every access and returns their number, or an error when the bytes
+    /// are malformed (a truncated or overlong varint), when more than `limit` accesses would be
+    /// decoded (checked before each run is expanded), when the decoded count differs from the
+    /// recorded one, or when `f` returns false. For streams read from files.
+    pub fn try_for_each(&self, limit: u64, mut f: impl FnMut(u64, bool) -> bool) -> Result<u64, DecodeError> {
+        let b = &self.bytes[..];
+        let mut pos = 0;
+        let mut heads = Heads::default();
+        let mut decoded = 0u64;
+        while pos < b.len() {
+            let (tok, n) = get_varint(&b[pos..]).ok_or(DecodeError("malformed line-stream token"))?;
+            pos += n;
+            let reps = if tok & 1 == 1 {
+                let (c, n) = get_varint(&b[pos..]).ok_or(DecodeError("malformed line-stream run length"))?;
+                pos += n;
+                c.checked_add(2)
+                    .ok_or(DecodeError("line-stream run length overflows"))?
+            } else {
+                1
+            };
+            decoded = decoded
+                .checked_add(reps)
+                .filter(|&d| d <= limit)
+                .ok_or(DecodeError("line stream longer than the file can hold"))?;
+            let tok = tok >> 1;
+            let write = tok & 1 == 1;
+            let slot = ((tok >> 1) & (SLOTS as u64 - 1)) as usize;
+            let delta = unzigzag(tok >> 3);
+            for _ in 0..reps {
+                let line = heads.line[slot].wrapping_add(delta as u64);
+                heads.update(slot, delta, line);
+                if !f(line, write) {
+                    return Err(DecodeError("line rejected"));
+                }
+            }
+        }
+        if decoded != self.count {
+            return Err(DecodeError(
+                "line-stream count differs from the accesses it holds",
+            ));
+        }
+        Ok(decoded)
     }
 
     /// Decode: `(line, is_write)` in access order.
@@ -445,7 +499,7 @@ impl Iterator for LineIter<'_> {
             self.left = if tok & 1 == 1 {
                 let (c, n) = get_varint(&self.b[self.pos..])?;
                 self.pos += n;
-                c + 2
+                c.saturating_add(2)
             } else {
                 1
             };

@@ -27,6 +27,43 @@ pub const PRESETS: &[&str] = &[
     "larrabee-64",
 ];
 
+/// Ranges of the integer fields (inclusive), units as on each field. Chosen so that a frame's replay
+/// cannot overflow 64-bit cycle counts with records that pass `load_records`' limits: every cost per
+/// instruction, line or barrier is at most 2^14 cycles.
+pub const LIMITS: &[(&str, u64, u64)] = &[
+    ("cores", 1, 4096),
+    ("threads_per_core", 1, 64),
+    ("simd_width", 16, 16),
+    ("vector_issue_per_clock", 1, 16),
+    ("scalar_issue_per_clock", 1, 16),
+    ("l1_kb", 1, 65_536),
+    ("l1_ways", 1, 64),
+    ("l1_latency", 0, 10_000),
+    ("l2_kb", 1, 1_048_576),
+    ("l2_ways", 1, 64),
+    ("l2_latency", 0, 10_000),
+    ("line_bytes", 64, 64),
+    ("ring_hop_latency", 0, 1_000),
+    ("ring_bytes_per_clock", 1, 4_096),
+    ("atomic_cycles", 1, 10_000),
+    ("atomic_conflict_cycles", 0, 10_000),
+    ("barrier_cycles", 0, 10_000_000),
+    ("gather_cycles_per_line", 1, 10_000),
+    ("transcendental_cycles", 1, 10_000),
+];
+
+/// Ranges of the real fields (inclusive): `clock_ghz` GHz, `dram_latency_ns` ns, `dram_bandwidth_gbs`
+/// GB/s. At the extremes a DRAM miss costs at most 5e6 cycles and a DRAM byte at most 5e3.
+pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
+    ("clock_ghz", 0.001, 50.0),
+    ("dram_latency_ns", 0.0, 100_000.0),
+    ("dram_bandwidth_gbs", 0.01, 1_000_000.0),
+];
+
+/// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
+/// per line, so this bounds its memory (4 GiB of modelled cache, 512 MiB of tags).
+pub const MAX_CACHE_BYTES: u64 = 4 << 30;
+
 /// A configurable Larrabee-style chip. All cycle figures are core clock cycles.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -155,8 +192,7 @@ impl MachineConfig {
 
     /// Reads a machine TOML file (see the module documentation).
     pub fn load(path: &Path) -> anyhow::Result<MachineConfig> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("cannot read machine file {}: {e}", path.display()))?;
+        let text = crate::input::read_text(path, "machine file", crate::input::MAX_TEXT_BYTES)?;
         let default_name = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -219,31 +255,21 @@ impl MachineConfig {
         Ok(config)
     }
 
-    /// Checks every value; on failure returns the key and what is wrong.
+    /// Checks every value against its documented range ([`LIMITS`], [`REAL_LIMITS`]); on failure
+    /// returns the key and what is wrong. Within these ranges the model's arithmetic cannot overflow
+    /// (see `timing`), and its caches fit in [`MAX_CACHE_BYTES`].
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        let positive: [(&'static str, u32); 14] = [
-            ("cores", self.cores),
-            ("threads_per_core", self.threads_per_core),
-            ("vector_issue_per_clock", self.vector_issue_per_clock),
-            ("scalar_issue_per_clock", self.scalar_issue_per_clock),
-            ("l1_kb", self.l1_kb),
-            ("l1_ways", self.l1_ways),
-            ("l2_kb", self.l2_kb),
-            ("l2_ways", self.l2_ways),
-            ("ring_bytes_per_clock", self.ring_bytes_per_clock),
-            ("atomic_cycles", self.atomic_cycles),
-            ("gather_cycles_per_line", self.gather_cycles_per_line),
-            ("transcendental_cycles", self.transcendental_cycles),
-            ("simd_width", self.simd_width),
-            ("line_bytes", self.line_bytes),
-        ];
-        for (key, v) in positive {
-            if v == 0 {
-                return Err((key, "must be at least 1".into()));
+        for &(key, lo, hi) in LIMITS {
+            let v = self.integer(key);
+            if v < lo || v > hi {
+                return Err((key, format!("= {v} is out of range {lo}..={hi}")));
             }
         }
-        if self.cores > 4096 {
-            return Err(("cores", format!("= {} is more than 4096", self.cores)));
+        for &(key, lo, hi) in REAL_LIMITS {
+            let v = self.real(key);
+            if !(v.is_finite() && v >= lo && v <= hi) {
+                return Err((key, format!("= {v} is out of range [{lo}, {hi}]")));
+            }
         }
         if self.simd_width != 16 {
             return Err((
@@ -275,18 +301,56 @@ impl MachineConfig {
                 ));
             }
         }
-        for (key, v) in [
-            ("clock_ghz", self.clock_ghz),
-            ("dram_bandwidth_gbs", self.dram_bandwidth_gbs),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err((key, format!("= {v} must be a positive number")));
-            }
-        }
-        if !(self.dram_latency_ns.is_finite() && self.dram_latency_ns >= 0.0) {
-            return Err(("dram_latency_ns", "must be a number ≥ 0".into()));
+        let cache_bytes = self.cores as u64 * (self.l1_kb as u64 + self.l2_kb as u64) * 1024;
+        if cache_bytes > MAX_CACHE_BYTES {
+            return Err((
+                "l2_kb",
+                format!(
+                    "with l1_kb = {} and {} cores gives {} MiB of modelled cache; at most {} MiB",
+                    self.l1_kb,
+                    self.cores,
+                    cache_bytes >> 20,
+                    MAX_CACHE_BYTES >> 20
+                ),
+            ));
         }
         Ok(())
+    }
+
+    /// The integer field `key` (one of [`LIMITS`]).
+    fn integer(&self, key: &str) -> u64 {
+        (match key {
+            "cores" => self.cores,
+            "threads_per_core" => self.threads_per_core,
+            "simd_width" => self.simd_width,
+            "vector_issue_per_clock" => self.vector_issue_per_clock,
+            "scalar_issue_per_clock" => self.scalar_issue_per_clock,
+            "l1_kb" => self.l1_kb,
+            "l1_ways" => self.l1_ways,
+            "l1_latency" => self.l1_latency,
+            "l2_kb" => self.l2_kb,
+            "l2_ways" => self.l2_ways,
+            "l2_latency" => self.l2_latency,
+            "line_bytes" => self.line_bytes,
+            "ring_hop_latency" => self.ring_hop_latency,
+            "ring_bytes_per_clock" => self.ring_bytes_per_clock,
+            "atomic_cycles" => self.atomic_cycles,
+            "atomic_conflict_cycles" => self.atomic_conflict_cycles,
+            "barrier_cycles" => self.barrier_cycles,
+            "gather_cycles_per_line" => self.gather_cycles_per_line,
+            "transcendental_cycles" => self.transcendental_cycles,
+            _ => unreachable!("not an integer field: {key}"),
+        }) as u64
+    }
+
+    /// The real field `key` (one of [`REAL_LIMITS`]).
+    fn real(&self, key: &str) -> f64 {
+        match key {
+            "clock_ghz" => self.clock_ghz,
+            "dram_latency_ns" => self.dram_latency_ns,
+            "dram_bandwidth_gbs" => self.dram_bandwidth_gbs,
+            _ => unreachable!("not a real field: {key}"),
+        }
     }
 
     /// The resolved configuration as TOML (what `machine.toml` holds), with a header comment.

@@ -11,10 +11,10 @@
 
 pub mod cache;
 pub mod config;
+pub mod records;
 pub mod sweep;
 pub mod timing;
 
-use std::io::{Read, Write};
 use std::path::Path;
 
 pub use config::MachineConfig;
@@ -233,87 +233,4 @@ pub fn write_config(dir: &Path, config: &MachineConfig) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
 }
 
-const RECORDS_MAGIC: &[u8; 8] = b"SISMREC\0";
-const RECORDS_VERSION: u32 = 1;
-
-/// Writes `records` to `path`: the magic `SISMREC\0`, a little-endian u32 version (1) and phase
-/// count, then per phase its name (u32 length + UTF-8), task count (u64) and each task's
-/// [`sism_simd::TaskRecord::to_bytes`] prefixed by its length (u64).
-pub fn save_records(path: &Path, records: &[PhaseRecords]) -> anyhow::Result<()> {
-    let file =
-        std::fs::File::create(path).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
-    let mut w = std::io::BufWriter::new(file);
-    let put = |w: &mut std::io::BufWriter<std::fs::File>, b: &[u8]| {
-        w.write_all(b)
-            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
-    };
-    put(&mut w, RECORDS_MAGIC)?;
-    put(&mut w, &RECORDS_VERSION.to_le_bytes())?;
-    put(&mut w, &(records.len() as u32).to_le_bytes())?;
-    for p in records {
-        put(&mut w, &(p.phase.len() as u32).to_le_bytes())?;
-        put(&mut w, p.phase.as_bytes())?;
-        put(&mut w, &(p.tasks.len() as u64).to_le_bytes())?;
-        for t in &p.tasks {
-            let b = t.to_bytes();
-            put(&mut w, &(b.len() as u64).to_le_bytes())?;
-            put(&mut w, &b)?;
-        }
-    }
-    w.flush()
-        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
-}
-
-/// Reads a file written by [`save_records`].
-pub fn load_records(path: &Path) -> anyhow::Result<Vec<PhaseRecords>> {
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_to_end(&mut bytes))
-        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
-    parse_records(&bytes).map_err(|e| anyhow::anyhow!("records file {}: {e}", path.display()))
-}
-
-/// Parses the bytes of a records file (see [`save_records`]).
-pub fn parse_records(b: &[u8]) -> Result<Vec<PhaseRecords>, String> {
-    let mut pos = 0usize;
-    let mut take = |n: usize| -> Result<&[u8], String> {
-        if b.len() - pos < n {
-            return Err(format!("truncated at byte {pos}"));
-        }
-        pos += n;
-        Ok(&b[pos - n..pos])
-    };
-    if take(8)? != RECORDS_MAGIC {
-        return Err("not a sism records file (bad magic)".into());
-    }
-    let u32_at = |s: &[u8]| u32::from_le_bytes(s.try_into().expect("4 bytes"));
-    let u64_at = |s: &[u8]| u64::from_le_bytes(s.try_into().expect("8 bytes"));
-    let version = u32_at(take(4)?);
-    if version != RECORDS_VERSION {
-        return Err(format!(
-            "unsupported version {version} (expected {RECORDS_VERSION})"
-        ));
-    }
-    let phases = u32_at(take(4)?);
-    let mut out = Vec::with_capacity(phases as usize);
-    for _ in 0..phases {
-        let len = u32_at(take(4)?) as usize;
-        let phase = String::from_utf8(take(len)?.to_vec()).map_err(|_| "phase name is not UTF-8")?;
-        let n = u64_at(take(8)?);
-        let mut tasks = Vec::with_capacity(n.min(1 << 20) as usize);
-        for i in 0..n {
-            let len = u64_at(take(8)?) as usize;
-            let (t, used) = sism_simd::TaskRecord::from_bytes(take(len)?)
-                .map_err(|e| format!("phase {phase}, task {i}: {e}"))?;
-            if used != len {
-                return Err(format!("phase {phase}, task {i}: length mismatch"));
-            }
-            tasks.push(t);
-        }
-        out.push(PhaseRecords { phase, tasks });
-    }
-    if pos != b.len() {
-        return Err(format!("{} trailing bytes", b.len() - pos));
-    }
-    Ok(out)
-}
+pub use records::{load_records, parse_records, save_records};

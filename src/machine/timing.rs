@@ -57,7 +57,10 @@ pub struct CycleStack {
 impl CycleStack {
     /// Sum of the parts.
     pub fn total(&self) -> u64 {
-        self.issue + self.memory + self.atomics_sync + self.imbalance_idle
+        self.issue
+            .saturating_add(self.memory)
+            .saturating_add(self.atomics_sync)
+            .saturating_add(self.imbalance_idle)
     }
     /// Part names and values, in order.
     pub fn parts(&self) -> [(&'static str, u64); 4] {
@@ -69,10 +72,10 @@ impl CycleStack {
         ]
     }
     fn add(&mut self, o: &CycleStack) {
-        self.issue += o.issue;
-        self.memory += o.memory;
-        self.atomics_sync += o.atomics_sync;
-        self.imbalance_idle += o.imbalance_idle;
+        self.issue = self.issue.saturating_add(o.issue);
+        self.memory = self.memory.saturating_add(o.memory);
+        self.atomics_sync = self.atomics_sync.saturating_add(o.atomics_sync);
+        self.imbalance_idle = self.imbalance_idle.saturating_add(o.imbalance_idle);
     }
 }
 
@@ -138,26 +141,43 @@ pub struct TaskCost {
 impl TaskCost {
     /// Core time of the task.
     pub fn cycles(&self) -> u64 {
-        self.issue + self.atomics + self.exposed
+        self.issue
+            .saturating_add(self.atomics)
+            .saturating_add(self.exposed)
     }
 }
 
-/// Issue and atomic cycles of a task's counters (no memory).
+/// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
+/// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
+/// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping.
 pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
-    let plain = c.valu + c.fma + c.load + c.store + c.compress_expand;
-    let gs_lines = (c.gather_lines + c.scatter_lines) * m.gather_cycles_per_line as u64;
-    let vector = plain.div_ceil(m.vector_issue_per_clock as u64)
-        + c.transcendental * m.transcendental_cycles as u64
-        + gs_lines.max(c.gather + c.scatter);
-    let scalar = (c.scalar + c.mask).div_ceil(m.scalar_issue_per_clock as u64);
-    let atomics = c.atomic * m.atomic_cycles as u64 + c.atomic_conflicts * m.atomic_conflict_cycles as u64;
+    let plain = c
+        .valu
+        .saturating_add(c.fma)
+        .saturating_add(c.load)
+        .saturating_add(c.store)
+        .saturating_add(c.compress_expand);
+    let gs_lines =
+        (c.gather_lines.saturating_add(c.scatter_lines)).saturating_mul(m.gather_cycles_per_line as u64);
+    let vector = plain
+        .div_ceil(m.vector_issue_per_clock as u64)
+        .saturating_add(c.transcendental.saturating_mul(m.transcendental_cycles as u64))
+        .saturating_add(gs_lines.max(c.gather.saturating_add(c.scatter)));
+    let scalar = c
+        .scalar
+        .saturating_add(c.mask)
+        .div_ceil(m.scalar_issue_per_clock as u64);
+    let atomics = c
+        .atomic
+        .saturating_mul(m.atomic_cycles as u64)
+        .saturating_add(c.atomic_conflicts.saturating_mul(m.atomic_conflict_cycles as u64));
     (vector.max(scalar), atomics)
 }
 
 /// The exposed part of `stall` for a task of `busy` cycles on a core of `threads` threads.
 pub fn exposed_stall(stall: u64, busy: u64, threads: u32) -> u64 {
     let t = threads.max(1) as u64;
-    stall.saturating_sub((t - 1) * busy).div_ceil(t)
+    stall.saturating_sub((t - 1).saturating_mul(busy)).div_ceil(t)
 }
 
 /// What one phase took on the machine.
@@ -198,6 +218,38 @@ struct Core {
     l2: Cache,
 }
 
+/// A task's cache outcomes so far (its lines arrive in chunks).
+#[derive(Clone, Copy, Debug, Default)]
+struct LineTally {
+    accesses: u64,
+    l1_hits: u64,
+    l2_hits: u64,
+    l2_misses: u64,
+    writebacks: u64,
+}
+
+impl LineTally {
+    /// Replays `lines` (ids from [`map_lines`]) through `core`'s caches.
+    #[inline]
+    fn replay(&mut self, core: &mut Core, lines: &[u32]) {
+        for &a in lines {
+            let (id, write) = (a >> 1, a & 1 == 1);
+            if core.l1.access(id, write).hit {
+                self.l1_hits += 1;
+                continue;
+            }
+            let r = core.l2.access(id, write);
+            self.writebacks += r.writeback as u64;
+            if r.hit {
+                self.l2_hits += 1;
+            } else {
+                self.l2_misses += 1;
+            }
+        }
+        self.accesses += lines.len() as u64;
+    }
+}
+
 /// The chip during a frame's replay: per-core caches (warm across phases) and the line-id map.
 pub struct Machine<'a> {
     config: &'a MachineConfig,
@@ -225,47 +277,30 @@ impl<'a> Machine<'a> {
 
     /// Runs `task` on `core`: replays its lines through the core's caches.
     pub fn run_task(&mut self, core: usize, task: &TaskRecord, mem: &mut MemoryCounts) -> TaskCost {
-        let mut accesses = Vec::new();
-        map_lines(&mut self.ids, task, &mut accesses);
-        self.run_mapped(core, &task.counters, &accesses, mem)
+        let mut tally = LineTally::default();
+        let mut chunk = Vec::new();
+        let ids = &mut self.ids;
+        let cores = &mut self.cores;
+        map_lines(ids, task, &mut chunk, |lines| {
+            tally.replay(&mut cores[core], lines);
+        });
+        self.finish(&task.counters, &tally, mem)
     }
 
-    /// Runs a task of counters `counters` whose line stream is already mapped to ids ([`map_lines`])
-    /// on `core`.
-    fn run_mapped(
-        &mut self,
-        core: usize,
-        counters: &Counters,
-        accesses: &[u32],
-        mem: &mut MemoryCounts,
-    ) -> TaskCost {
+    /// The cost of a task of `counters` whose lines were replayed into `tally`, and its memory
+    /// counts added to `mem`.
+    fn finish(&self, counters: &Counters, tally: &LineTally, mem: &mut MemoryCounts) -> TaskCost {
         let m = self.config;
         let (issue, atomics) = compute_cost(counters, m);
-        let c = &mut self.cores[core];
         let (l1_lat, l2_lat) = (m.l1_latency as u64, m.l2_latency as u64);
-        // Hits counted in the loop, misses summed from the counts after it.
-        let (mut l1_hits, mut l2_hits, mut l2_misses, mut writebacks) = (0u64, 0u64, 0u64, 0u64);
-        for &a in accesses {
-            let (id, write) = (a >> 1, a & 1 == 1);
-            if c.l1.access(id, write).hit {
-                l1_hits += 1;
-                continue;
-            }
-            let r = c.l2.access(id, write);
-            writebacks += r.writeback as u64;
-            if r.hit {
-                l2_hits += 1;
-            } else {
-                l2_misses += 1;
-            }
-        }
-        let n = accesses.len() as u64;
-        mem.accesses += n;
-        mem.l1_misses += n - l1_hits;
-        mem.l2_misses += l2_misses;
-        mem.writebacks += writebacks;
-        let stall = l1_hits * l1_lat + l2_hits * l2_lat + l2_misses * self.dram_miss;
-        let exposed = exposed_stall(stall, issue + atomics, m.threads_per_core);
+        mem.accesses += tally.accesses;
+        mem.l1_misses += tally.accesses - tally.l1_hits;
+        mem.l2_misses += tally.l2_misses;
+        mem.writebacks += tally.writebacks;
+        let stall = (tally.l1_hits.saturating_mul(l1_lat))
+            .saturating_add(tally.l2_hits.saturating_mul(l2_lat))
+            .saturating_add(tally.l2_misses.saturating_mul(self.dram_miss));
+        let exposed = exposed_stall(stall, issue.saturating_add(atomics), m.threads_per_core);
         TaskCost {
             issue,
             atomics,
@@ -277,19 +312,23 @@ impl<'a> Machine<'a> {
     /// Replays one phase: schedules its tasks, then the barrier.
     pub fn run_phase(&mut self, phase: &str, tasks: &[TaskRecord]) -> PhaseReport {
         let mut ids = std::mem::take(&mut self.ids);
-        let r = self.run_phase_with(phase, tasks, |task, out| map_lines(&mut ids, task, out));
+        let mut chunk = Vec::new();
+        let r = self.run_phase_with(phase, tasks, |task, replay| {
+            map_lines(&mut ids, task, &mut chunk, replay)
+        });
         self.ids = ids;
         r
     }
 
-    /// [`Machine::run_phase`] with each task's accesses supplied by `mapped(task, out)`, which puts
-    /// them into `out` as [`map_lines`] does (tasks are asked for in record order). The pipelined
-    /// replay ([`simulate_frame`]) maps lines on another thread.
+    /// [`Machine::run_phase`] with each task's line ids supplied by `mapped(task, replay)`, which
+    /// calls `replay` with the task's ids ([`map_lines`]' encoding) chunk by chunk, in order (tasks
+    /// are asked for in record order). The pipelined replay ([`simulate_frame`]) maps lines on
+    /// another thread.
     fn run_phase_with(
         &mut self,
         phase: &str,
         tasks: &[TaskRecord],
-        mut mapped: impl FnMut(&TaskRecord, &mut Vec<u32>),
+        mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])),
     ) -> PhaseReport {
         let m = self.config;
         let n = m.cores as usize;
@@ -298,24 +337,25 @@ impl<'a> Machine<'a> {
         let mut memory = MemoryCounts::default();
         let mut counters = Counters::default();
         let mut schedule = Vec::with_capacity(tasks.len());
-        let mut accesses = Vec::new();
         for task in tasks {
             // Least busy core, ties to the lowest index.
             let core = (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core");
-            mapped(task, &mut accesses);
-            let cost = self.run_mapped(core, &task.counters, &accesses, &mut memory);
-            busy[core] += cost.cycles();
+            let mut tally = LineTally::default();
+            let cores = &mut self.cores;
+            mapped(task, &mut |lines| tally.replay(&mut cores[core], lines));
+            let cost = self.finish(&task.counters, &tally, &mut memory);
+            busy[core] = busy[core].saturating_add(cost.cycles());
             schedule.push((core as u32, cost.cycles()));
-            issue += cost.issue;
-            exposed += cost.exposed;
-            atomics += cost.atomics;
+            issue = issue.saturating_add(cost.issue);
+            exposed = exposed.saturating_add(cost.exposed);
+            atomics = atomics.saturating_add(cost.atomics);
             counters += task.counters;
         }
         let busiest = busy.iter().copied().max().unwrap_or(0);
         let dram_bound = (memory.dram_bytes(m.line_bytes) as f64 / m.dram_bytes_per_cycle()).ceil() as u64;
         let bw_excess = dram_bound.saturating_sub(busiest);
         let barrier = m.barrier_cycles as u64;
-        let cycles = busiest + bw_excess + barrier;
+        let cycles = busiest.saturating_add(bw_excess).saturating_add(barrier);
         let cores = n as u64;
         let mut stack = CycleStack {
             issue: issue / cores,
@@ -323,7 +363,9 @@ impl<'a> Machine<'a> {
             atomics_sync: atomics / cores + barrier,
             imbalance_idle: 0,
         };
-        stack.imbalance_idle = cycles - stack.total();
+        // The average core's parts never exceed the busiest core's time (each is a share of the
+        // summed core time, which is at most cores × busiest), so the rest is ≥ 0.
+        stack.imbalance_idle = cycles.saturating_sub(stack.total());
         PhaseReport {
             phase: phase.to_string(),
             tasks: tasks.len() as u64,
@@ -339,25 +381,39 @@ impl<'a> Machine<'a> {
     }
 }
 
-/// Tasks mapped ahead of the cache replay (bounds the memory held by the pipeline: a task's buffer
-/// is 4 bytes per line access, a few MB for the largest tasks).
+/// Chunks of line ids mapped ahead of the cache replay; with [`CHUNK_LINES`] per chunk, the
+/// pipeline holds at most a few MB whatever the records claim.
 const PIPELINE_DEPTH: usize = 16;
 
+/// Line ids per chunk handed from the mapping thread to the cache replay.
+pub const CHUNK_LINES: usize = 1 << 16;
+
 /// Replays a whole frame (phases in order) on a cold chip, in two pipelined stages: one thread
-/// decodes each task's line stream and maps it to first-touch ids (record order), the calling thread
-/// schedules the tasks and replays the ids through the caches. Both stages run in record order, so
-/// the result is the same as [`Machine::run_phase`] phase after phase, whatever the host's threads.
+/// decodes each task's line stream and maps it to first-touch ids (record order), handing them over
+/// in chunks of [`CHUNK_LINES`]; the calling thread schedules the tasks and replays the ids through
+/// the caches. Both stages run in record order, so the result is the same as
+/// [`Machine::run_phase`] phase after phase, whatever the host's threads.
 pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
     std::thread::scope(|scope| {
-        let (full_tx, full_rx) = crossbeam::channel::bounded::<Vec<u32>>(PIPELINE_DEPTH);
+        // A message is a chunk of a task's ids and whether it is the task's last.
+        let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, bool)>(PIPELINE_DEPTH);
         let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
         scope.spawn(move || {
             for task in phases.iter().flat_map(|p| p.1.iter()) {
                 let mut buf = empty_rx.try_recv().unwrap_or_default();
-                map_lines(&mut ids, task, &mut buf);
-                if full_tx.send(buf).is_err() {
+                buf.clear();
+                let mut alive = true;
+                task.lines.for_each(|line, write| {
+                    buf.push(ids.id(line) << 1 | write as u32);
+                    if buf.len() == CHUNK_LINES && alive {
+                        let next = empty_rx.try_recv().unwrap_or_default();
+                        alive = full_tx.send((std::mem::replace(&mut buf, next), false)).is_ok();
+                        buf.clear();
+                    }
+                });
+                if !alive || full_tx.send((buf, true)).is_err() {
                     return;
                 }
             }
@@ -365,23 +421,34 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
         phases
             .iter()
             .map(|&(name, tasks)| {
-                machine.run_phase_with(name, tasks, |_, out| {
-                    let buf = full_rx.recv().expect("the mapping thread maps every task");
-                    // Hand the previous buffer back for reuse (the mapper may have finished).
-                    let _ = empty_tx.send(std::mem::replace(out, buf));
+                machine.run_phase_with(name, tasks, |_, replay| loop {
+                    let (chunk, last) = full_rx.recv().expect("the mapping thread maps every task");
+                    replay(&chunk);
+                    // Hand the buffer back for reuse (the mapper may have finished).
+                    let _ = empty_tx.send(chunk);
+                    if last {
+                        break;
+                    }
                 })
             })
             .collect()
     })
 }
 
-/// Decodes `task`'s line stream into `out` as `id << 1 | is_write`, ids from `ids` (first touch over
-/// the frame, so tasks must be mapped in frame order).
-pub fn map_lines(ids: &mut LineIds, task: &TaskRecord, out: &mut Vec<u32>) {
-    out.clear();
-    out.reserve(task.lines.len() as usize);
-    task.lines
-        .for_each(|line, write| out.push(ids.id(line) << 1 | write as u32));
+/// Decodes `task`'s line stream as `id << 1 | is_write`, ids from `ids` (first touch over the frame,
+/// so tasks must be mapped in frame order), calling `replay` with chunks of at most [`CHUNK_LINES`]
+/// ids (`chunk` is the buffer).
+pub fn map_lines(ids: &mut LineIds, task: &TaskRecord, chunk: &mut Vec<u32>, mut replay: impl FnMut(&[u32])) {
+    chunk.clear();
+    task.lines.for_each(|line, write| {
+        chunk.push(ids.id(line) << 1 | write as u32);
+        if chunk.len() == CHUNK_LINES {
+            replay(chunk);
+            chunk.clear();
+        }
+    });
+    replay(chunk);
+    chunk.clear();
 }
 
 /// The frame's totals from its phases: cycles, stack, counters and memory counts summed; the
@@ -403,13 +470,13 @@ pub fn frame_total(phases: &[PhaseReport], config: &MachineConfig) -> PhaseRepor
 /// busy time; not `ms` and not the schedule).
 pub fn add_phase(f: &mut PhaseReport, p: &PhaseReport) {
     f.tasks += p.tasks;
-    f.cycles += p.cycles;
+    f.cycles = f.cycles.saturating_add(p.cycles);
     f.stack.add(&p.stack);
     f.counters += p.counters;
     f.memory.add(&p.memory);
     f.dram_bound += p.dram_bound;
     for (a, b) in f.core_busy.iter_mut().zip(&p.core_busy) {
-        *a += b;
+        *a = a.saturating_add(*b);
     }
 }
 

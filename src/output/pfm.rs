@@ -21,7 +21,7 @@ pub fn write_pfm(path: &Path, image: &VisibilityImage) -> std::io::Result<()> {
 
 /// Reads a one-channel PFM of either byte order into a top-to-bottom [`VisibilityImage`].
 pub fn read_pfm(path: &Path) -> Result<VisibilityImage, InputError> {
-    let bytes = std::fs::read(path).map_err(|e| InputError::io(path, e))?;
+    let bytes = crate::input::read_file(path, "PFM image", crate::input::MAX_IMAGE_BYTES)?;
     let bad = |message: String| InputError::Pfm {
         path: path.into(),
         message,

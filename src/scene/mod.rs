@@ -22,6 +22,16 @@ pub const MAX_IMAGE_SIDE: u32 = 32_768;
 /// (receiver position, normal, visibility, sample records); past this a frame needs several GiB and
 /// would not fit in the 24 GiB machines this project runs on once the algorithms' buffers are added.
 pub const MAX_PIXELS: u64 = 1 << 27;
+/// Largest accepted |coordinate| of any point of a scene (vertices after their mesh's transform,
+/// shape corners, camera, light centre) and of any size (radii), world units. Squares of such values
+/// stay finite in f32 (1e30 < 3.4e38), so every normalisation and cross product downstream stays
+/// finite; the ray tracer's BVH build fails on coordinates past ~1e18.
+pub const MAX_COORDINATE: f32 = 1e15;
+/// Largest accepted triangle count of a scene (2^27): triangle indices and the rasterizer's packed
+/// ids are 32-bit, and every algorithm keeps tens of bytes per triangle.
+pub const MAX_TRIANGLES: usize = 1 << 27;
+/// Field of view bounds, degrees: narrower or wider views have no usable projection in f32.
+pub const FOV_RANGE_DEG: (f32, f32) = (1e-3, 179.999);
 
 /// One triangle mesh with shared vertices (shared so edge adjacency, and with it silhouettes, can be
 /// found later). Positions are in world units after the mesh's transform.
@@ -53,11 +63,13 @@ impl Mesh {
 #[serde(deny_unknown_fields)]
 pub struct Camera {
     /// Eye position, world units.
+    #[serde(deserialize_with = "xyz")]
     pub eye: [f32; 3],
     /// A point the camera looks at; must differ from `eye`.
+    #[serde(deserialize_with = "xyz")]
     pub look_at: [f32; 3],
     /// Up direction (need not be unit; not parallel to the view direction). Default +y.
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "xyz")]
     pub up: [f32; 3],
     /// Vertical field of view, degrees, in (0, 180).
     pub fov_y_deg: f32,
@@ -96,10 +108,11 @@ impl Camera {
         ] {
             check_finite(key, v)?;
         }
-        if !(self.fov_y_deg.is_finite() && self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
+        let (lo, hi) = FOV_RANGE_DEG;
+        if !(self.fov_y_deg.is_finite() && self.fov_y_deg >= lo && self.fov_y_deg <= hi) {
             return Err((
                 "camera.fov_y_deg",
-                format!("is {}, must be in (0, 180) degrees", self.fov_y_deg),
+                format!("is {}, must be in [{lo}, {hi}] degrees", self.fov_y_deg),
             ));
         }
         for (key, side) in [("camera.width", self.width), ("camera.height", self.height)] {
@@ -170,6 +183,7 @@ impl CameraFrame {
 #[serde(deny_unknown_fields)]
 pub struct Light {
     /// Centre, world units.
+    #[serde(deserialize_with = "xyz")]
     pub center: [f32; 3],
     /// Radius, world units, >= 0; 0 is a point light (hard shadows).
     pub radius: f32,
@@ -195,7 +209,7 @@ pub struct Scene {
 impl Scene {
     /// Loads and checks the scene file at `path`, and every mesh it names (relative to its folder).
     pub fn load(path: &Path) -> Result<Scene, InputError> {
-        let text = std::fs::read_to_string(path).map_err(|e| InputError::io(path, e))?;
+        let text = crate::input::read_text(path, "scene file", crate::input::MAX_TEXT_BYTES)?;
         Self::from_toml(&text, path)
     }
 
@@ -260,7 +274,7 @@ struct MeshEntry {
     scale: f32,
     #[serde(default)]
     rotate_y_deg: f32,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "xyz")]
     translate: [f32; 3],
 }
 
@@ -272,8 +286,11 @@ fn one() -> f32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct QuadEntry {
+    #[serde(deserialize_with = "xyz")]
     corner: [f32; 3],
+    #[serde(deserialize_with = "xyz")]
     edge_u: [f32; 3],
+    #[serde(deserialize_with = "xyz")]
     edge_v: [f32; 3],
 }
 
@@ -281,7 +298,9 @@ struct QuadEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct BoxEntry {
+    #[serde(deserialize_with = "xyz")]
     min: [f32; 3],
+    #[serde(deserialize_with = "xyz")]
     max: [f32; 3],
 }
 
@@ -289,6 +308,7 @@ struct BoxEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereEntry {
+    #[serde(deserialize_with = "xyz")]
     center: [f32; 3],
     radius: f32,
     #[serde(default = "default_segments")]
@@ -299,7 +319,9 @@ struct SphereEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DiskEntry {
+    #[serde(deserialize_with = "xyz")]
     center: [f32; 3],
+    #[serde(deserialize_with = "xyz")]
     normal: [f32; 3],
     radius: f32,
     #[serde(default = "default_segments")]
@@ -310,11 +332,64 @@ fn default_segments() -> u32 {
     48
 }
 
+/// A 3-vector key: exactly three numbers (serde would accept a longer array and drop the rest).
+fn xyz<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let v: Vec<f32> = Vec::deserialize(d)?;
+    <[f32; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!("expected 3 numbers [x, y, z], found {} numbers", v.len()))
+    })
+}
+
+/// Every coordinate finite and within [`MAX_COORDINATE`].
 fn check_finite(key: &'static str, v: [f32; 3]) -> Result<(), (&'static str, String)> {
-    if v.iter().all(|x| x.is_finite()) {
+    if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE) {
         Ok(())
     } else {
-        Err((key, format!("is {v:?}: every coordinate must be finite")))
+        Err((
+            key,
+            format!("is {v:?}: every coordinate must be finite and within ±{MAX_COORDINATE:e}"),
+        ))
+    }
+}
+
+/// A direction (a normal, an edge vector): finite, and within `2 ×` [`MAX_COORDINATE`] for edges
+/// (the corners it reaches are checked on their own); normals of any finite length are scaled.
+fn check_direction(v: [f32; 3], limit: f32) -> Result<(), String> {
+    if v.iter().all(|x| x.is_finite() && x.abs() <= limit) {
+        Ok(())
+    } else {
+        Err(format!(
+            "is {v:?}: every component must be finite and within ±{limit:e}"
+        ))
+    }
+}
+
+/// A size (radius) finite, > 0 (or >= 0 with `zero_ok`) and within [`MAX_COORDINATE`].
+fn check_size(value: f32, zero_ok: bool) -> Result<(), String> {
+    let low_ok = if zero_ok { value >= 0.0 } else { value > 0.0 };
+    if value.is_finite() && low_ok && value <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(format!(
+            "is {value}, must be finite, {} and at most {MAX_COORDINATE:e}",
+            if zero_ok { ">= 0" } else { "> 0" }
+        ))
+    }
+}
+
+/// Every vertex of `mesh` finite and within [`MAX_COORDINATE`]: the error names the vertex and where
+/// it came from (`origin`: the transform or shape that made it).
+fn check_positions(mesh: &Mesh, origin: &str) -> Result<(), String> {
+    match mesh
+        .positions
+        .iter()
+        .position(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE))
+    {
+        None => Ok(()),
+        Some(k) => Err(format!(
+            "makes vertex {k} {} ({origin}): every coordinate must be finite and within ±{MAX_COORDINATE:e}",
+            mesh.positions[k]
+        )),
     }
 }
 
@@ -328,15 +403,8 @@ impl SceneFile {
         let keyed = |(key, message): (&str, String)| invalid(key.to_string(), message);
         self.camera.validate().map_err(keyed)?;
         check_finite("light.center", self.light.center).map_err(keyed)?;
-        if !(self.light.radius.is_finite() && self.light.radius >= 0.0) {
-            return Err(invalid(
-                "light.radius".into(),
-                format!(
-                    "is {}, must be finite and >= 0 (0 is a point light)",
-                    self.light.radius
-                ),
-            ));
-        }
+        check_size(self.light.radius, true)
+            .map_err(|m| invalid("light.radius".into(), format!("{m} (0 is a point light)")))?;
 
         let base = path.parent().unwrap_or(Path::new("."));
         let mut meshes = Vec::new();
@@ -352,16 +420,24 @@ impl SceneFile {
                 return Err(invalid(key("rotate_y_deg"), "must be finite".into()));
             }
             check_finite("translate", entry.translate).map_err(|(_, m)| invalid(key("translate"), m))?;
-            let mut mesh = load_obj(&base.join(&entry.path))?;
+            let mesh_path = base.join(&entry.path);
+            let mut mesh = load_obj(&mesh_path)?;
             let rotation = glam::Quat::from_rotation_y(entry.rotate_y_deg.to_radians());
             for p in &mut mesh.positions {
                 *p = rotation * (*p * entry.scale) + Vec3::from(entry.translate);
             }
+            check_positions(
+                &mesh,
+                &format!("{} after scale, rotate_y_deg, translate", mesh_path.display()),
+            )
+            .map_err(|m| invalid(key("scale"), m))?;
             meshes.push(mesh);
         }
         for (i, q) in self.quad.iter().enumerate() {
-            for (field, v) in [("corner", q.corner), ("edge_u", q.edge_u), ("edge_v", q.edge_v)] {
-                check_finite("", v).map_err(|(_, m)| invalid(format!("quad[{i}].{field}"), m))?;
+            check_finite("", q.corner).map_err(|(_, m)| invalid(format!("quad[{i}].corner"), m))?;
+            for (field, v) in [("edge_u", q.edge_u), ("edge_v", q.edge_v)] {
+                check_direction(v, 2.0 * MAX_COORDINATE)
+                    .map_err(|m| invalid(format!("quad[{i}].{field}"), m))?;
             }
             if Vec3::from(q.edge_u).cross(Vec3::from(q.edge_v)).length() == 0.0 {
                 return Err(invalid(
@@ -369,12 +445,10 @@ impl SceneFile {
                     "has parallel or zero edges: no area".into(),
                 ));
             }
-            meshes.push(shapes::quad(
-                "quad",
-                q.corner.into(),
-                q.edge_u.into(),
-                q.edge_v.into(),
-            ));
+            let mesh = shapes::quad("quad", q.corner.into(), q.edge_u.into(), q.edge_v.into());
+            check_positions(&mesh, "corner + edge_u + edge_v")
+                .map_err(|m| invalid(format!("quad[{i}]"), m))?;
+            meshes.push(mesh);
         }
         for (i, b) in self.boxes.iter().enumerate() {
             check_finite("", b.min).map_err(|(_, m)| invalid(format!("box[{i}].min"), m))?;
@@ -389,44 +463,39 @@ impl SceneFile {
         }
         for (i, s) in self.sphere.iter().enumerate() {
             check_finite("", s.center).map_err(|(_, m)| invalid(format!("sphere[{i}].center"), m))?;
-            if !(s.radius.is_finite() && s.radius > 0.0) {
-                return Err(invalid(
-                    format!("sphere[{i}].radius"),
-                    format!("is {}, must be > 0", s.radius),
-                ));
-            }
+            check_size(s.radius, false).map_err(|m| invalid(format!("sphere[{i}].radius"), m))?;
             if !(3..=1024).contains(&s.segments) {
                 return Err(invalid(
                     format!("sphere[{i}].segments"),
                     format!("is {}, must be in 3..=1024", s.segments),
                 ));
             }
-            meshes.push(shapes::uv_sphere("sphere", s.center.into(), s.radius, s.segments));
+            let mesh = shapes::uv_sphere("sphere", s.center.into(), s.radius, s.segments);
+            check_positions(&mesh, "center ± radius").map_err(|m| invalid(format!("sphere[{i}]"), m))?;
+            meshes.push(mesh);
         }
         for (i, d) in self.disk.iter().enumerate() {
             check_finite("", d.center).map_err(|(_, m)| invalid(format!("disk[{i}].center"), m))?;
-            check_finite("", d.normal).map_err(|(_, m)| invalid(format!("disk[{i}].normal"), m))?;
+            check_direction(d.normal, f32::MAX).map_err(|m| invalid(format!("disk[{i}].normal"), m))?;
             if Vec3::from(d.normal).length() == 0.0 {
                 return Err(invalid(format!("disk[{i}].normal"), "is zero".into()));
             }
-            if !(d.radius.is_finite() && d.radius > 0.0) {
-                return Err(invalid(
-                    format!("disk[{i}].radius"),
-                    format!("is {}, must be > 0", d.radius),
-                ));
-            }
+            check_size(d.radius, false).map_err(|m| invalid(format!("disk[{i}].radius"), m))?;
             if !(3..=65536).contains(&d.segments) {
                 return Err(invalid(
                     format!("disk[{i}].segments"),
                     format!("is {}, must be in 3..=65536", d.segments),
                 ));
             }
-            meshes.push(shapes::disk(
-                "disk",
-                d.center.into(),
-                d.normal.into(),
-                d.radius,
-                d.segments,
+            let mesh = shapes::disk("disk", d.center.into(), d.normal.into(), d.radius, d.segments);
+            check_positions(&mesh, "center ± radius").map_err(|m| invalid(format!("disk[{i}]"), m))?;
+            meshes.push(mesh);
+        }
+        let triangles: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+        if triangles > MAX_TRIANGLES {
+            return Err(invalid(
+                "mesh".into(),
+                format!("the scene has {triangles} triangles; at most {MAX_TRIANGLES} are accepted"),
             ));
         }
         if meshes.is_empty() {

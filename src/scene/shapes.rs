@@ -83,7 +83,14 @@ pub fn uv_sphere(name: &str, center: Vec3, radius: f32, segments: u32) -> Mesh {
 /// perpendicular to `normal`, fanned from its centre. Its area is
 /// `segments/2 * sin(2*pi/segments) * radius^2`, which the closed-form tests use exactly.
 pub fn disk(name: &str, center: Vec3, normal: Vec3, radius: f32, segments: u32) -> Mesh {
-    let (t, b) = orthonormal_basis(normal.normalize());
+    // A huge normal's squared length overflows f32 (glam's normalize then gives zero): scale by its
+    // largest component first. Ordinary normals keep the direct form (bit-identical shapes).
+    let unit = if normal.length_squared().is_finite() && normal.length_squared() > 1e-30 {
+        normal.normalize()
+    } else {
+        (normal / normal.abs().max_element()).normalize()
+    };
+    let (t, b) = orthonormal_basis(unit);
     let mut positions = vec![center];
     for s in 0..segments {
         let a = std::f32::consts::TAU * s as f32 / segments as f32;

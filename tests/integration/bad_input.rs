@@ -57,7 +57,7 @@ fn unreadable_scene_file() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("scene.toml")).unwrap();
     let out = sism(dir.path(), &["render", "scene.toml", "--quiet"]);
-    assert_clean_failure(&out, &["scene.toml", "cannot read"]);
+    assert_clean_failure(&out, &["scene.toml", "is a directory, not a regular file"]);
 }
 
 #[test]

@@ -4,6 +4,7 @@ mod bad_input;
 mod closed_forms;
 mod convergence;
 mod golden;
+mod hardening;
 mod obj_loading;
 mod registry;
 mod shared_scenes;

@@ -28,7 +28,7 @@ pub const WEDGE_SLACK: f32 = 1e-4;
 
 crate::declare_stats! {
     /// Counters of the penumbra stage.
-    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
     pub struct PenumbraStats {
         /// Silhouette edge records (an edge with two counted same-side triangles is one record).
         pub silhouettes: u64 => ("penumbra.silhouettes", "edges", "silhouette edge records w.r.t. the light centre"),
@@ -48,12 +48,12 @@ crate::declare_stats! {
         pub samples_culled_by_wedge: u64 => ("penumbra.samples_culled_by_wedge", "samples", "samples under a quad outside its wedge (by row depth or per sample)"),
         /// Sample-edge evaluations of Eq. 3 (active lanes).
         pub samples_evaluated: u64 => ("penumbra.samples_evaluated", "evaluations", "Eq. 3 evaluations (active lanes)"),
-        /// `samples_evaluated` per grid sample (integer mean; see [`PenumbraStats::finish`]).
-        pub evaluations_per_sample: u64 => ("penumbra.evaluations_per_sample", "evaluations", "Eq. 3 evaluations per sample (integer mean)"),
+        /// `samples_evaluated` per grid sample (mean; see [`PenumbraStats::finish`]).
+        pub evaluations_per_sample: f64 => ("penumbra.evaluations_per_sample", "evaluations", "Eq. 3 evaluations per sample (mean)"),
         /// Penumbra tasks (bins, or rows of columns of heavy bins; see [`SPLIT_WORK`]).
         pub tasks: u64 => ("penumbra.tasks", "tasks", "penumbra tasks: bins, or single rows of columns of bins with more quad-sample pairs than SPLIT_WORK"),
-        /// `samples_evaluated` per (bin, quad) pair (integer mean).
-        pub evaluations_per_quad: u64 => ("penumbra.evaluations_per_quad", "evaluations", "samples evaluated per (bin, quad) pair (integer mean)"),
+        /// `samples_evaluated` per (bin, quad) pair (mean).
+        pub evaluations_per_quad: f64 => ("penumbra.evaluations_per_quad", "evaluations", "samples evaluated per (bin, quad) pair (mean)"),
         /// Samples inside at least one quad's wedge.
         pub samples_reached: u64 => ("penumbra.samples_reached", "samples", "samples inside at least one penumbra quad's wedge"),
         /// Quads evaluated per reached sample.
@@ -79,11 +79,9 @@ impl PenumbraStats {
 
     /// The derived means, once the frame's `samples` are known.
     pub fn finish(&mut self, samples: u64) {
-        self.evaluations_per_sample = self.samples_evaluated.checked_div(samples).unwrap_or(0);
-        self.evaluations_per_quad = self
-            .samples_evaluated
-            .checked_div(self.quad_bin_pairs)
-            .unwrap_or(0);
+        let mean = |n: u64, d: u64| if d == 0 { 0.0 } else { n as f64 / d as f64 };
+        self.evaluations_per_sample = mean(self.samples_evaluated, samples);
+        self.evaluations_per_quad = mean(self.samples_evaluated, self.quad_bin_pairs);
     }
 }
 
