@@ -171,7 +171,10 @@ pub fn render_prepared(
 
 /// A render timed on a modelled machine: counted, then its records replayed.
 pub struct MachineRender {
+    /// The render (its raw `records` already replaced by `records` below: empty).
     pub result: RenderResult,
+    /// The frame's records with first-touch line ids, as a records file holds them.
+    pub records: machine::CanonicalRecords,
     pub report: MachineReport,
     /// Host seconds of the counted render and of the replay.
     pub render_seconds: f64,
@@ -200,8 +203,11 @@ pub fn render_on_machine(
     );
     let render_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let report = machine::simulate(&result.records, config);
-    let simulate_seconds = t1.elapsed().as_secs_f64();
+    let records = machine::canonical(&std::mem::take(&mut result.records));
+    let canonical_seconds = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let report = machine::simulate(&records, config);
+    let simulate_seconds = t2.elapsed().as_secs_f64();
     result
         .stats
         .stat(
@@ -209,6 +215,12 @@ pub fn render_on_machine(
             render_seconds * 1e3,
             "ms",
             "the frame under the counting context, recording tasks (host wall time)",
+        )
+        .stat(
+            "time.canonical_records",
+            canonical_seconds * 1e3,
+            "ms",
+            "line addresses replaced by first-touch ids, as a records file holds them (host wall time)",
         )
         .stat(
             "time.machine_simulation",
@@ -219,6 +231,7 @@ pub fn render_on_machine(
     report.add_to(&mut result.stats);
     MachineRender {
         result,
+        records,
         report,
         render_seconds,
         simulate_seconds,

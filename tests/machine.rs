@@ -406,8 +406,12 @@ fn plate_on_larrabee_24_and_replay() {
     // Replay from a file equals the direct simulation, on this and another machine.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("records.bin");
-    save_records(&path, &records).unwrap();
+    let canonical = sism::machine::canonical(&records);
+    // First-touch ids time exactly as the addresses they replace.
+    assert_eq!(simulate(&canonical, &m), r);
+    save_records(&path, &canonical).unwrap();
     let loaded = load_records(&path).unwrap();
+    assert_eq!(loaded, canonical);
     assert_eq!(simulate(&loaded, &m), r);
     let m48 = MachineConfig::resolve("larrabee-48").unwrap();
     assert_eq!(simulate(&loaded, &m48), simulate(&records, &m48));

@@ -412,7 +412,7 @@ impl LineStream {
 
     /// Encodes `accesses` (`(line, is_write)` in order) as a stream, as a recorder would have.
     pub fn encode(accesses: impl IntoIterator<Item = (u64, bool)>) -> LineStream {
-        let mut e = LineEncoder::default();
+        let mut e = LineStreamEncoder::default();
         for (line, write) in accesses {
             e.push(line, write);
         }
@@ -511,6 +511,23 @@ impl Iterator for LineIter<'_> {
         let line = self.heads.line[slot].wrapping_add(delta as u64);
         self.heads.update(slot, delta, line);
         Some((line, write))
+    }
+}
+
+/// Builds a [`LineStream`] access by access (what [`LineStream::encode`] does from an iterator), for
+/// callers that produce accesses inside a callback.
+#[derive(Default)]
+pub struct LineStreamEncoder(LineEncoder);
+
+impl LineStreamEncoder {
+    /// Appends one access (a repeat of the previous access is dropped, as when recording).
+    #[inline]
+    pub fn push(&mut self, line: u64, write: bool) {
+        self.0.push(line, write);
+    }
+    /// The finished stream.
+    pub fn finish(self) -> LineStream {
+        self.0.finish()
     }
 }
 

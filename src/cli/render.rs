@@ -52,7 +52,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let r = render::render_on_machine(&scene, algo, &params, &config, !a.quiet);
         render::write_outputs(&a.out, &scene, &r.result)?;
         machine::write_config(&a.out, &config)?;
-        machine::save_records(&a.out.join("records.bin"), &r.result.records)?;
+        machine::save_records(&a.out.join("records.bin"), &r.records)?;
         if !a.quiet {
             eprint!("{}", r.result.stats.to_text());
             eprint!("{}", r.report.to_table());

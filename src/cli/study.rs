@@ -71,10 +71,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             progress: !a.quiet,
         },
     );
-    machine::save_records(&out.join("records.bin"), &frame.records)?;
+    let records = machine::canonical(&frame.records);
+    drop(frame);
+    machine::save_records(&out.join("records.bin"), &records)?;
     machine::write_config(&out, &base)?;
     let bar = sism::progress::bar(configs.len() as u64, "simulating", !a.quiet);
-    let points = sweep::run(&frame.records, &configs, || bar.inc(1));
+    let points = sweep::run(&records, &configs, || bar.inc(1));
     bar.finish_and_clear();
     write_csv(&out.join("study.csv"), &points)?;
     plots::speedup(&out.join("speedup.png"), &scene, &points)?;

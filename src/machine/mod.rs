@@ -233,4 +233,4 @@ pub fn write_config(dir: &Path, config: &MachineConfig) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
 }
 
-pub use records::{load_records, parse_records, save_records};
+pub use records::{canonical, load_records, parse_records, save_records, CanonicalRecords};

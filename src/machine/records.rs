@@ -23,7 +23,7 @@
 
 use std::path::Path;
 
-use sism_simd::{LineStream, TaskRecord};
+use sism_simd::{LineStreamEncoder, TaskRecord};
 
 use super::cache::LineIds;
 use crate::exec::PhaseRecords;
@@ -69,41 +69,54 @@ pub fn checksum(bytes: &[u8]) -> u64 {
     (h ^ bytes.len() as u64).wrapping_mul(K)
 }
 
-/// `records` with their lines replaced by first-touch ids in record order (see the module docs).
-pub fn canonical(records: &[PhaseRecords]) -> Vec<PhaseRecords> {
-    let mut ids = LineIds::new();
-    records
-        .iter()
-        .map(|p| PhaseRecords {
-            phase: p.phase.clone(),
-            tasks: p
-                .tasks
-                .iter()
-                .map(|t| {
-                    let mut lines = Vec::with_capacity(t.lines.len() as usize);
-                    t.lines
-                        .for_each(|line, write| lines.push((ids.id(line) as u64, write)));
-                    TaskRecord {
-                        kind: t.kind,
-                        counters: t.counters,
-                        lines: LineStream::encode(lines),
-                    }
-                })
-                .collect(),
-        })
-        .collect()
+/// A frame's records with their lines replaced by first-touch ids in record order (see the module
+/// docs): what a records file holds. They time exactly as the records they came from.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CanonicalRecords(pub Vec<PhaseRecords>);
+
+impl std::ops::Deref for CanonicalRecords {
+    type Target = [PhaseRecords];
+    fn deref(&self) -> &[PhaseRecords] {
+        &self.0
+    }
 }
 
-/// The bytes of a records file holding `records` (canonicalised first).
-pub fn to_bytes(records: &[PhaseRecords]) -> Vec<u8> {
-    let records = canonical(records);
+/// `records` with their lines replaced by first-touch ids in record order.
+pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
+    let mut ids = LineIds::new();
+    CanonicalRecords(
+        records
+            .iter()
+            .map(|p| PhaseRecords {
+                phase: p.phase.clone(),
+                tasks: p
+                    .tasks
+                    .iter()
+                    .map(|t| {
+                        let mut lines = LineStreamEncoder::default();
+                        t.lines
+                            .for_each(|line, write| lines.push(ids.id(line) as u64, write));
+                        TaskRecord {
+                            kind: t.kind,
+                            counters: t.counters,
+                            lines: lines.finish(),
+                        }
+                    })
+                    .collect(),
+            })
+            .collect(),
+    )
+}
+
+/// The bytes of a records file holding `records`.
+pub fn to_bytes(records: &CanonicalRecords) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&FLAG_FIRST_TOUCH.to_le_bytes());
     out.extend_from_slice(&0u64.to_le_bytes()); // the total size, patched below
     out.extend_from_slice(&(records.len() as u32).to_le_bytes());
-    for p in &records {
+    for p in records.iter() {
         out.extend_from_slice(&(p.phase.len() as u32).to_le_bytes());
         out.extend_from_slice(p.phase.as_bytes());
         out.extend_from_slice(&(p.tasks.len() as u64).to_le_bytes());
@@ -121,14 +134,14 @@ pub fn to_bytes(records: &[PhaseRecords]) -> Vec<u8> {
 }
 
 /// Writes `records` to `path` (see the module docs for the format).
-pub fn save_records(path: &Path, records: &[PhaseRecords]) -> anyhow::Result<()> {
+pub fn save_records(path: &Path, records: &CanonicalRecords) -> anyhow::Result<()> {
     std::fs::write(path, to_bytes(records))
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
 }
 
 /// Reads a records file written by [`save_records`] (a regular file of at most
 /// [`crate::input::MAX_RECORDS_BYTES`]).
-pub fn load_records(path: &Path) -> anyhow::Result<Vec<PhaseRecords>> {
+pub fn load_records(path: &Path) -> anyhow::Result<CanonicalRecords> {
     let bytes = crate::input::read_file(path, "records file", crate::input::MAX_RECORDS_BYTES)?;
     parse_records(&bytes).map_err(|e| anyhow::anyhow!("records file {}: {e}", path.display()))
 }
@@ -167,7 +180,7 @@ impl<'a> Reader<'a> {
 }
 
 /// Parses the bytes of a records file (see the module docs), checking everything.
-pub fn parse_records(b: &[u8]) -> Result<Vec<PhaseRecords>, String> {
+pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
     if b.len() < 8 || &b[..8] != MAGIC {
         return Err("not a sism records file (bad magic)".into());
     }
@@ -281,5 +294,5 @@ pub fn parse_records(b: &[u8]) -> Result<Vec<PhaseRecords>, String> {
     if r.remaining() != 0 {
         return Err(format!("{} trailing bytes before the checksum", r.remaining()));
     }
-    Ok(out)
+    Ok(CanonicalRecords(out))
 }
