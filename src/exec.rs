@@ -77,6 +77,9 @@ pub struct PhaseTime {
     pub host: Duration,
     /// Tasks the phase ran (natively or counted).
     pub tasks: u64,
+    /// True when the phase ran its work as kernels (even as no task at all: nothing to do); false
+    /// when it never went through the kernel runners (host work the model cannot time).
+    pub modelled: bool,
 }
 
 /// A frame's phases: host times, and under [`Exec::Counting`] every step's task records.
@@ -110,6 +113,7 @@ impl FrameLog {
             name,
             exec: self.exec,
             tasks: 0,
+            modelled: false,
             steps: Vec::new(),
         };
         let out = f(&mut phase);
@@ -118,6 +122,7 @@ impl FrameLog {
             what,
             host: t.elapsed(),
             tasks: phase.tasks,
+            modelled: phase.modelled,
         });
         self.records.extend(phase.steps);
         out
@@ -143,10 +148,11 @@ impl FrameLog {
         std::mem::take(&mut self.records)
     }
 
-    /// Under counting, the phases that ran no task: host work the machine model does not time.
+    /// Under counting, the phases that did their work outside the kernel runners: host work the
+    /// machine model does not time. (A phase whose kernels had nothing to do is timed: as zero.)
     pub fn untimed(&self) -> impl Iterator<Item = &PhaseTime> {
         let counting = self.exec == Exec::Counting;
-        self.times.iter().filter(move |t| counting && t.tasks == 0)
+        self.times.iter().filter(move |t| counting && !t.modelled)
     }
 
     /// `time.<phase>` per phase and `time.frame` (their sum), host wall times in ms.
@@ -189,6 +195,7 @@ pub struct Phase {
     name: &'static str,
     exec: Exec,
     tasks: u64,
+    modelled: bool,
     steps: Vec<PhaseRecords>,
 }
 
@@ -248,6 +255,7 @@ impl Phase {
 
     fn file(&mut self, step: &str, tasks: u64, records: Vec<Vec<TaskRecord>>) {
         self.tasks += tasks;
+        self.modelled = true;
         // A step with no task has nothing to time (and no barrier to wait at).
         if self.exec == Exec::Counting && tasks > 0 {
             let out = self.step_records(step);
@@ -366,6 +374,8 @@ mod tests {
         assert_eq!(outs.len(), 41);
         log.phase("b", "phase b", |_| ());
         log.phase("c", "phase c", |p| p.run("", Touch(3)));
+        // Kernels with nothing to do: timed (as zero), not untimed.
+        log.phase("d", "phase d", |p| p.run_seq("", Vec::<Touch>::new()));
         let r = log.records();
         let names: Vec<&str> = r.iter().map(|p| p.phase.as_str()).collect();
         assert_eq!(names, ["a.x", "a.y", "c"]);

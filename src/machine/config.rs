@@ -204,7 +204,7 @@ impl MachineConfig {
     /// Parses machine TOML text; `default_name` names the result when the text has no `name`.
     /// Errors name the offending key.
     pub fn from_toml(text: &str, default_name: &str) -> Result<MachineConfig, String> {
-        let mut user: toml::Table = toml::from_str(text).map_err(|e| e.message().to_string())?;
+        let mut user: toml::Table = toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())?;
         let base_name = match user.remove("base") {
             None => "larrabee-24".to_string(),
             Some(toml::Value::String(s)) => s,
@@ -250,7 +250,7 @@ impl MachineConfig {
         }
         let config: MachineConfig = merged
             .try_into()
-            .map_err(|e: toml::de::Error| e.message().to_string())?;
+            .map_err(|e: toml::de::Error| e.to_string().trim_end().to_string())?;
         config.validate().map_err(|(key, msg)| format!("`{key}` {msg}"))?;
         Ok(config)
     }

@@ -132,7 +132,7 @@ pub fn parse_obj(bytes: &[u8], path: &Path) -> Result<Mesh, InputError> {
                     let resolved = match i {
                         0 => return Err(err(number, "face index 0 (OBJ indices start at 1)".into())),
                         i if i > 0 && i <= n => i - 1,
-                        i if i < 0 && -i <= n => n + i,
+                        i if i < 0 && i >= -n => n + i,
                         _ => {
                             return Err(err(
                                 number,
