@@ -66,6 +66,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let result = render::render(&scene, algo, &params, &options);
     render::write_outputs(&a.out, &scene, &result)?;
+    if result.receivers.pixels.iter().all(|p| p.is_none()) {
+        eprintln!("warning: no pixel sees a surface: the image holds only misses (check the camera)");
+    }
     if !a.quiet {
         eprint!("{}", result.stats.to_text());
         eprintln!("wrote {}", a.out.display());
