@@ -41,12 +41,31 @@ pub struct Candidate {
 /// The candidates of the comparison, in registry order: each algorithm's [`BenchPlan`], with the
 /// values of a swept parameter replaced where `sweeps` names its key (`("spp", ["4", "16"])`; values
 /// are sorted numerically when they are numbers, and de-duplicated).
-pub fn candidates(sweeps: &[(&str, Vec<String>)]) -> Result<Vec<Candidate>, ParamError> {
+/// With `only`, just the algorithms it names (in registry order; an unknown name is an error).
+pub fn candidates(
+    sweeps: &[(&str, Vec<String>)],
+    only: Option<&[String]>,
+) -> Result<Vec<Candidate>, ParamError> {
+    if let Some(names) = only {
+        if let Some(bad) = names.iter().find(|n| algorithms::find(n).is_none()) {
+            return Err(ParamError {
+                algorithm: bad.clone(),
+                key: "name".into(),
+                message: format!(
+                    "is not a registered algorithm ({})",
+                    algorithms::names().collect::<Vec<_>>().join(", ")
+                ),
+            });
+        }
+    }
     let mut list = Vec::new();
     for &a in algorithms::REGISTRY {
+        if only.is_some_and(|names| !names.iter().any(|n| n == a.name)) {
+            continue;
+        }
         match a.bench {
-            BenchPlan::Skip => {}
-            BenchPlan::Defaults => list.push(Candidate {
+            BenchPlan::Skip if only.is_none() => {}
+            BenchPlan::Skip | BenchPlan::Defaults => list.push(Candidate {
                 algorithm: a,
                 params: a.params(&[])?,
                 setting: "-".into(),
@@ -318,7 +337,11 @@ mod tests {
 
     #[test]
     fn candidates_sweep_sorted_then_sism() {
-        let c = candidates(&[("spp", vec!["64".into(), "4".into(), "16".into(), "4".into()])]).unwrap();
+        let c = candidates(
+            &[("spp", vec!["64".into(), "4".into(), "16".into(), "4".into()])],
+            None,
+        )
+        .unwrap();
         let names: Vec<_> = c.iter().map(|c| (c.algorithm.name, c.setting.as_str())).collect();
         assert_eq!(
             names,
@@ -329,6 +352,15 @@ mod tests {
                 ("sism", "-"),
                 ("sism-independent", "-"),
                 ("sism-sampled", "-"),
+                ("shadow-map", "512"),
+                ("shadow-map", "1024"),
+                ("shadow-map", "2048"),
+                ("shadow-map", "4096"),
+                ("pcf", "3"),
+                ("pcf", "9"),
+                ("pcf", "17"),
+                ("pcss", "16"),
+                ("pcss", "64"),
             ]
         );
     }

@@ -310,6 +310,14 @@ pub mod task_kind {
     pub const BIN_LISTS: u32 = 0x501;
     /// SISM silhouettes: a chunk of edges tested against the light centre.
     pub const SILHOUETTES: u32 = 0x600;
+    /// Depth map: a tile's texels (resolve of the light view's raster).
+    pub const DEPTH_MAP_TEXELS: u32 = 0x700;
+    /// Depth map: the nearest depth over a chunk of texels.
+    pub const DEPTH_MAP_MIN: u32 = 0x701;
+    /// Shadow-map family: a chunk of receivers looked up in the depth maps.
+    pub const SHADOW_LOOKUP: u32 = 0x702;
+    /// Shadow-map family: a chunk of visibilities scattered to their pixels.
+    pub const SHADOW_SCATTER: u32 = 0x703;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -335,6 +343,10 @@ pub mod task_kind {
         BIN_ITEMS,
         BIN_LISTS,
         SILHOUETTES,
+        DEPTH_MAP_TEXELS,
+        DEPTH_MAP_MIN,
+        SHADOW_LOOKUP,
+        SHADOW_SCATTER,
     ];
 }
 

@@ -59,7 +59,11 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         o
     };
-    run(args("bench", &["--spp-list", "16,4", "--truth-spp", "256"]));
+    let algos = ["--algos", "reference,sism,sism-independent,sism-sampled"];
+    run(args(
+        "bench",
+        &["--spp-list", "16,4", "--truth-spp", "256", algos[0], algos[1]],
+    ));
     let out = dir.path().join("bench");
 
     // CSV: the header, the reference's sweep in ascending spp, then the three SISM compositions.
@@ -115,7 +119,14 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     let truth = out.join("truth/visibility.pfm");
     run(args(
         "again",
-        &["--spp-list", "4", "--truth", truth.to_str().unwrap()],
+        &[
+            "--spp-list",
+            "4",
+            "--truth",
+            truth.to_str().unwrap(),
+            algos[0],
+            algos[1],
+        ],
     ));
     let again: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("again/bench.json")).unwrap()).unwrap();
@@ -129,7 +140,8 @@ fn library_bench_measures_every_candidate_against_one_truth() {
     let mut scene = sism::scene::Scene::load(&plate()).unwrap();
     scene.camera.width = 48;
     scene.camera.height = 36;
-    let candidates = bench::candidates(&[("spp", vec!["4".into()])]).unwrap();
+    let only = ["reference", "sism", "shadow-map", "pcss"].map(String::from);
+    let candidates = bench::candidates(&[("spp", vec!["4".into()])], Some(&only)).unwrap();
     let (truth, info) = bench::render_truth(&scene, 64, false).unwrap();
     let report = bench::bench_scene(&scene, &candidates, &truth.visibility, info, 2, false).unwrap();
     assert_eq!(report.rows.len(), candidates.len());

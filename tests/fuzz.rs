@@ -410,6 +410,13 @@ fn scene_case(rng: &mut Rng, dir: &Path, c: &Corpus, t: &mut Tally) -> Result<()
     if algo.param("spp").is_some() {
         given.push(("spp".to_string(), (1 + rng.below(8)).to_string()));
     }
+    if algo.param("map_size").is_some() {
+        // Small maps keep a case quick (the size is not what is fuzzed).
+        given.push((
+            "map_size".to_string(),
+            rng.pick(&["256", "256", "512"]).to_string(),
+        ));
+    }
     let params = algo.params(&given).map_err(|e| e.to_string())?;
     let counted = algo.kernels && rng.chance(6);
     let options = RenderOptions {

@@ -8,7 +8,9 @@
 //! registry line.
 
 pub mod params;
+pub mod pixels;
 pub mod reference;
+pub mod shadow_map;
 pub mod sism;
 
 #[cfg(test)]
@@ -33,6 +35,8 @@ pub enum Family {
     RayTraced,
     /// Soft irregular shadow mapping and its compositions.
     Sism,
+    /// Shadow maps: the hard test, PCF, PCSS.
+    ShadowMap,
     /// Test-only algorithms.
     Test,
 }
@@ -43,6 +47,7 @@ impl Family {
         match self {
             Family::RayTraced => "ray-traced",
             Family::Sism => "sism",
+            Family::ShadowMap => "shadow-map",
             Family::Test => "test",
         }
     }
@@ -132,6 +137,9 @@ pub static REGISTRY: &[&Algorithm] = &[
     &sism::SISM,
     &sism::SISM_INDEPENDENT,
     &sism::SISM_SAMPLED,
+    &shadow_map::SHADOW_MAP,
+    &shadow_map::PCF,
+    &shadow_map::PCSS,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

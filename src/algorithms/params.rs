@@ -10,6 +10,8 @@ use std::fmt;
 pub enum ParamKind {
     /// A whole number in `min..=max`.
     Int { min: i64, max: i64 },
+    /// An odd whole number in `min..=max` (a kernel side with a centre tap).
+    OddInt { min: i64, max: i64 },
     /// An unsigned 64-bit number (seeds), any value.
     U64,
     /// A finite real number in `[min, max]`.
@@ -35,6 +37,7 @@ impl ParamSpec {
     pub fn range(&self) -> String {
         match self.kind {
             ParamKind::Int { min, max } => format!("{min}..={max}"),
+            ParamKind::OddInt { min, max } => format!("odd {min}..={max}"),
             ParamKind::U64 => "any u64".into(),
             ParamKind::Float { min, max } => format!("[{min}, {max}]"),
             ParamKind::Choice(names) => names.join("|"),
@@ -49,6 +52,13 @@ impl ParamSpec {
                 let v: i64 = t.parse().map_err(|_| format!("`{t}` is not a whole number"))?;
                 if v < min || v > max {
                     return Err(format!("{v} is out of range {}", self.range()));
+                }
+                Ok(ParamValue::Int(v))
+            }
+            ParamKind::OddInt { min, max } => {
+                let v: i64 = t.parse().map_err(|_| format!("`{t}` is not a whole number"))?;
+                if v < min || v > max || v % 2 == 0 {
+                    return Err(format!("{v} is not an odd number in {min}..={max}"));
                 }
                 Ok(ParamValue::Int(v))
             }

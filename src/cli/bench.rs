@@ -23,6 +23,10 @@ pub struct Args {
     /// The reference's spp sweep, comma-separated, each 1..=65536.
     #[arg(long, default_value = "4,16,64,256")]
     spp_list: String,
+    /// Only these algorithms, comma-separated (default: every one with a bench plan; `sism
+    /// algorithms` lists them).
+    #[arg(long)]
+    algos: Option<String>,
     /// Light-disk samples per receiver of the truth render.
     #[arg(long, default_value_t = 1024)]
     truth_spp: u32,
@@ -67,7 +71,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.truth_spp
     );
     let scene = a.scene.load()?;
-    let candidates = bench::candidates(&[("spp", spp_list)])?;
+    let only: Option<Vec<String>> = a.algos.as_ref().map(|s| {
+        s.split(',')
+            .map(|t| t.trim().to_string())
+            .filter(|t| !t.is_empty())
+            .collect()
+    });
+    let candidates = bench::candidates(&[("spp", spp_list)], only.as_deref())
+        .map_err(|e| anyhow::anyhow!("--algos: {e}"))?;
     let out = create_dir(&a.out)?;
     let truth_dir = create_dir(&out.join("truth"))?;
     let (width, height) = (scene.camera.width, scene.camera.height);

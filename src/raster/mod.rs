@@ -639,8 +639,8 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
         let mut table = TileTriangles::with_capacity(self.list.len());
         for (slot, &id) in self.list.iter().enumerate() {
             let t = self.tris.get(id);
-            table.push(t);
             let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(t, ox as f64, oy as f64);
+            table.push(t, gx, gy);
             s.scalar_ops(60);
             // Bounding box ∩ tile, tile-local inclusive pixels.
             let x0 = t.bbox[0].max(ox) - ox;
@@ -745,6 +745,10 @@ pub struct TileTriangles {
     pub plane_dist: Vec<f32>,
     /// Index of the source triangle in [`Scene::triangles`] order.
     pub original: Vec<i32>,
+    /// The plane of `1/z` (view depth) in screen space: its change per pixel along x and y,
+    /// 1/world units per pixel (depth maps scale their slope bias with it).
+    pub inv_z_dx: Vec<f32>,
+    pub inv_z_dy: Vec<f32>,
 }
 
 impl TileTriangles {
@@ -755,15 +759,19 @@ impl TileTriangles {
             nz: Vec::with_capacity(n),
             plane_dist: Vec::with_capacity(n),
             original: Vec::with_capacity(n),
+            inv_z_dx: Vec::with_capacity(n),
+            inv_z_dy: Vec::with_capacity(n),
         }
     }
 
     #[inline(always)]
-    fn push(&mut self, t: &ScreenTri) {
+    fn push(&mut self, t: &ScreenTri, inv_z_dx: f32, inv_z_dy: f32) {
         self.nx.push(t.normal.x);
         self.ny.push(t.normal.y);
         self.nz.push(t.normal.z);
         self.plane_dist.push(t.plane_dist);
         self.original.push(t.original as i32);
+        self.inv_z_dx.push(inv_z_dx);
+        self.inv_z_dy.push(inv_z_dy);
     }
 }

@@ -7,6 +7,7 @@ mod golden;
 mod hardening;
 mod obj_loading;
 mod registry;
+mod shadow_maps;
 mod shared_scenes;
 mod sism;
 mod util;

@@ -8,7 +8,7 @@
 //! direction); the hidden part is the circular segment beyond it, `(acos d - d sqrt(1 - d^2)) / pi`.
 
 use rayon::prelude::*;
-use sism_simd::{as_i32, Kernel, Simd};
+use sism_simd::{Kernel, Simd};
 
 use super::grid::Grid;
 use super::StageInputs;
@@ -66,50 +66,14 @@ pub fn compose(
                 out,
             }),
     );
-    // The scatter writes one shared image, so the host runs its tasks one after another (a pixel has
-    // at most one sample: the chip's tasks would not conflict).
-    for (pixels, values) in grid
-        .samples
-        .pixel
-        .chunks(RESOLVE_CHUNK)
-        .zip(values.chunks(RESOLVE_CHUNK))
-    {
-        phase.run(
-            "scatter",
-            ScatterToPixels {
-                pixels,
-                values,
-                image: &mut image.values,
-            },
-        );
-    }
-}
-
-/// Step `scatter`: a chunk of samples' values stored at their pixels (a vector scatter per 16).
-struct ScatterToPixels<'a> {
-    pixels: &'a [u32],
-    values: &'a [f32],
-    image: &'a mut [f32],
-}
-
-impl Kernel for ScatterToPixels<'_> {
-    type Output = ();
-    #[inline(always)]
-    fn run<S: Simd>(self, s: S) {
-        s.begin_task(task_kind::SISM_RESOLVE_SCATTER);
-        let zero = s.splat_f(0.0);
-        // Pixel indices are < 2^27 (MAX_PIXELS): exact as i32 lanes.
-        let pixels = as_i32(self.pixels);
-        let mut i = 0;
-        while i < self.pixels.len() {
-            let m = s.mask_first_n(self.pixels.len() - i);
-            let idx = s.mask_load_i(s.splat_i(0), m, &pixels[i..]);
-            let v = s.mask_load_f(zero, m, &self.values[i..]);
-            s.mask_scatter_f(self.image, m, idx, v);
-            i += 16;
-        }
-        s.end_task();
-    }
+    crate::algorithms::pixels::scatter_to_pixels(
+        phase,
+        "scatter",
+        task_kind::SISM_RESOLVE_SCATTER,
+        &grid.samples.pixel,
+        &values,
+        &mut image.values,
+    );
 }
 
 impl Kernel for Resolve<'_> {

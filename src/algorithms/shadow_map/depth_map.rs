@@ -1,0 +1,310 @@
+//! Light-view depth maps, rendered by the project's binned sort-middle rasterizer (the eye pass's),
+//! one per light face: one frustum when every receiver lies within 60° of a common direction from
+//! the light, a cube of six faces otherwise (the rule of SISM's light view, [`light_view::fit`]).
+//!
+//! **Frustum.** Each face is a square perspective view from the light point along the face axis,
+//! fitted to the receivers it holds (the largest `|x/z|`, `|y/z|` of their face coordinates) and
+//! widened by [`PAD_TEXELS`] on every side, so filters and revectorization walks of receivers at the
+//! rim read texels of the map, not its border.
+//!
+//! **Depth.** A texel holds the normalised linear depth `d = (z − z0) / (z1 − z0)` of the surface its
+//! centre sees (`z` the view depth along the axis, world units; `z0`, `z1` the nearest and farthest
+//! receiver depth of the face, so receivers lie in [0, 1] and nearer occluders below 0), 32-bit
+//! float, plus the bias of [`MapParams`] — a constant and a slope-scaled term, as a polygon offset
+//! adds them when a map is rendered. Texels that see nothing hold `+∞` (lit for any receiver).
+//! Reads outside the map are [`Lookup::Outside`]; each method says what they mean.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use sism_simd::Simd;
+
+use crate::algorithms::sism::light_samples::LightSamples;
+use crate::algorithms::sism::light_view::LightFace;
+use crate::exec::{task_kind, Phase};
+use crate::raster::{rasterize, tile_rows, RasterView, TileBuf, TileRaster, TileResolve, TileRows};
+use crate::scene::{CameraFrame, Scene};
+
+/// Texels of margin around the receivers on every side of a face (at least a revectorization walk,
+/// 16 texels, plus the 4-neighbourhood, and half the largest PCF kernel, 33 texels).
+pub const PAD_TEXELS: u32 = 20;
+
+/// Depth of a texel that sees nothing: lit whatever the receiver.
+pub const NOTHING: f32 = f32::INFINITY;
+
+/// How a depth map is made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapParams {
+    /// Map side, texels, 256..=8192.
+    pub size: u32,
+    /// Constant depth bias, in normalised depth (a face's receivers span [0, 1]).
+    pub bias_constant: f32,
+    /// Slope-scaled depth bias: times the surface's largest depth change per texel.
+    pub bias_slope: f32,
+}
+
+/// One face's depth map.
+#[derive(Clone, Debug)]
+pub struct FaceMap {
+    /// The face (axis and image-plane basis) and the light point it looks from.
+    pub face: LightFace,
+    pub origin: Vec3,
+    /// `tan` of the half field of view: the image plane spans `[-extent, extent]²`.
+    pub extent: f32,
+    /// Map side, texels.
+    pub size: u32,
+    /// Nearest receiver depth of the face (world units along the axis): normalised depth 0.
+    pub z0: f32,
+    /// `1 / (z1 − z0)`, 1/world units.
+    pub inv_range: f32,
+    /// Depth per texel, row-major from the top row (`+up` side), normalised and biased; [`NOTHING`]
+    /// where nothing is seen.
+    pub depth: Vec<f32>,
+    /// Nearest depth any texel sees, world units (PCSS bounds its blocker search with it).
+    pub z_min: f32,
+}
+
+/// A light point's depth maps: one per face.
+#[derive(Clone, Debug)]
+pub struct LightMaps {
+    pub faces: Vec<FaceMap>,
+    pub is_cube: bool,
+}
+
+/// A map read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lookup {
+    /// The texel's depth.
+    Depth(f32),
+    /// Outside the map.
+    Outside,
+}
+
+impl FaceMap {
+    /// Texels per unit of the image plane.
+    #[inline]
+    pub fn texels_per_unit(&self) -> f32 {
+        self.size as f32 / (2.0 * self.extent)
+    }
+
+    /// The continuous map position (texel `i` covers `[i, i + 1)`) and normalised depth of a point
+    /// with face coordinates `f` (`f.z > 0`).
+    #[inline]
+    pub fn project_face(&self, f: Vec3) -> (Vec2, f32) {
+        let half = 0.5 * self.size as f32;
+        let u = f.x / f.z;
+        let v = f.y / f.z;
+        let x = (u / self.extent + 1.0) * half;
+        let y = (1.0 - v / self.extent) * half;
+        (Vec2::new(x, y), (f.z - self.z0) * self.inv_range)
+    }
+
+    /// [`FaceMap::project_face`] of world point `p`.
+    #[inline]
+    pub fn project(&self, p: Vec3) -> (Vec2, f32) {
+        self.project_face(self.face.to_face(p - self.origin))
+    }
+
+    /// The depth of texel `(x, y)`, or [`Lookup::Outside`].
+    #[inline]
+    pub fn at(&self, x: i64, y: i64) -> Lookup {
+        let n = self.size as i64;
+        if x < 0 || y < 0 || x >= n || y >= n {
+            Lookup::Outside
+        } else {
+            Lookup::Depth(self.depth[(y * n + x) as usize])
+        }
+    }
+
+    /// World units of view depth per unit of normalised depth.
+    #[inline]
+    pub fn range(&self) -> f32 {
+        1.0 / self.inv_range
+    }
+
+    /// The view depth (world units) of normalised depth `d`.
+    #[inline]
+    pub fn world_depth(&self, d: f32) -> f32 {
+        self.z0 + d * self.range()
+    }
+}
+
+/// Renders the depth maps of `scene` seen from the light point `origin` for the receivers of
+/// `samples` (their light view and faces: the light centre's), as the steps of `phase`: per face
+/// `front_end`, `tile_lists`, `tiles` (the rasterizer's) — faces one after another.
+pub fn render_maps(
+    phase: &mut Phase,
+    scene: &Scene,
+    samples: &LightSamples,
+    origin: Vec3,
+    params: &MapParams,
+) -> LightMaps {
+    let n_faces = samples.view.faces.len();
+    // Per face: largest |u|, |v| and the receivers' depth range (they are grouped by face).
+    let mut extent = vec![0f32; n_faces];
+    let mut z_lo = vec![f32::INFINITY; n_faces];
+    let mut z_hi = vec![0f32; n_faces];
+    for s in &samples.samples {
+        let f = s.face as usize;
+        let q = samples.view.faces[f].to_face(s.q + samples.light.center - origin);
+        if q.z <= 0.0 {
+            continue;
+        }
+        extent[f] = extent[f].max((q.x / q.z).abs()).max((q.y / q.z).abs());
+        z_lo[f] = z_lo[f].min(q.z);
+        z_hi[f] = z_hi[f].max(q.z);
+    }
+    let size = params.size;
+    let widen = size as f32 / (size - 2 * PAD_TEXELS) as f32;
+    let faces = samples
+        .view
+        .faces
+        .iter()
+        .enumerate()
+        .map(|(f, &face)| {
+            let extent = (extent[f].max(1e-6) * widen).min(1e6);
+            let (z0, z1) = if z_lo[f].is_finite() {
+                (z_lo[f], z_hi[f])
+            } else {
+                (1.0, 2.0)
+            };
+            let inv_range = 1.0 / (z1 - z0).max(z0 * 1e-6).max(f32::MIN_POSITIVE);
+            let view = RasterView {
+                frame: CameraFrame {
+                    eye: origin,
+                    forward: face.axis,
+                    right: face.right,
+                    up: face.up,
+                    tan_half_fov: extent,
+                    aspect: 1.0,
+                    width: size,
+                    height: size,
+                },
+                // Occluders nearer than a ten-thousandth of the nearest receiver are inside the light.
+                z_near: z0 * 1e-4,
+            };
+            let mut depth: Vec<f32> = Vec::with_capacity(size as usize * size as usize);
+            let resolve = DepthResolve {
+                z0,
+                inv_range,
+                bias_constant: params.bias_constant,
+                bias_slope: params.bias_slope,
+            };
+            let outs = tile_rows(&mut depth, size, size);
+            rasterize(phase, scene, &view, &resolve, outs);
+            // SAFETY: `rasterize` hands every tile's rows to that tile's resolve, which writes every
+            // element of them (each texel, covered or not); the rows partition the map.
+            unsafe { depth.set_len(size as usize * size as usize) };
+            let d_min = phase
+                .run_par(
+                    "depth_min",
+                    depth.par_chunks(MIN_CHUNK).map(|depth| MinDepth { depth }),
+                )
+                .into_iter()
+                .fold(f32::INFINITY, f32::min);
+            let z_min = if d_min.is_finite() {
+                z0 + d_min / inv_range
+            } else {
+                f32::INFINITY
+            };
+            FaceMap {
+                face,
+                origin,
+                extent,
+                size,
+                z0,
+                inv_range,
+                depth,
+                z_min,
+            }
+        })
+        .collect();
+    LightMaps {
+        faces,
+        is_cube: samples.view.is_cube,
+    }
+}
+
+/// Texels per `depth_min` task.
+const MIN_CHUNK: usize = 1 << 16;
+
+/// Step `depth_min`: the smallest depth of a chunk of texels (+∞ when none sees anything).
+struct MinDepth<'a> {
+    depth: &'a [f32],
+}
+
+impl sism_simd::Kernel for MinDepth<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        s.begin_task(task_kind::DEPTH_MAP_MIN);
+        let inf = s.splat_f(f32::INFINITY);
+        let mut m = inf;
+        let mut i = 0;
+        while i < self.depth.len() {
+            let lanes = s.mask_first_n(self.depth.len() - i);
+            m = s.min_f(m, s.mask_load_f(inf, lanes, &self.depth[i..]));
+            i += 16;
+        }
+        s.end_task();
+        s.reduce_min_f(m)
+    }
+}
+
+/// A depth map's resolve: each texel's normalised, biased depth.
+struct DepthResolve {
+    z0: f32,
+    inv_range: f32,
+    bias_constant: f32,
+    bias_slope: f32,
+}
+
+impl TileResolve for DepthResolve {
+    type Out<'a> = TileRows<'a, f32>;
+    const TASK_KIND: u32 = task_kind::DEPTH_MAP_TEXELS;
+    #[inline(always)]
+    fn resolve<S: Simd>(&self, s: S, tile: &TileRaster<'_>, out: TileRows<'_, f32>) -> u64 {
+        write_depths(s, self, tile, out)
+    }
+}
+
+/// Writes a tile's texels, a 4×4 block (16 lanes) at a time; returns the number covered.
+#[inline(always)]
+fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: TileRows<'_, f32>) -> u64 {
+    let mut rows = out.rows;
+    let th = rows.len() as u32;
+    let tw = rows.first().map_or(0, |row| row.len()) as u32;
+    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
+    let (z0, inv_range) = (s.splat_f(r.z0), s.splat_f(r.inv_range));
+    let (c, k) = (s.splat_f(r.bias_constant), s.splat_f(r.bias_slope));
+    let nothing = s.splat_f(NOTHING);
+    let mut covered = 0u64;
+    for by in (0..th).step_by(4) {
+        for bx in (0..tw).step_by(4) {
+            let base = TileBuf::index(bx, by);
+            let slot = s.load_i(&tile.buf.id[base..base + 16]);
+            let hit = s.cmp_ge_i(slot, s.splat_i(0));
+            let mut vals = [NOTHING; 16];
+            if s.mask_any(hit) {
+                let inv_z = s.load_f(&tile.buf.inv_z[base..base + 16]);
+                let z = s.div_f(one, s.select_f(hit, inv_z, one));
+                let gx = s.mask_gather_f(zero, hit, &tile.triangles.inv_z_dx, slot);
+                let gy = s.mask_gather_f(zero, hit, &tile.triangles.inv_z_dy, slot);
+                // |dz/dpixel| = z² |d(1/z)/dpixel|, in normalised depth.
+                let g = s.max_f(s.abs_f(gx), s.abs_f(gy));
+                let slope = s.mul_f(s.mul_f(s.mul_f(z, z), g), inv_range);
+                let d = s.fmadd(s.sub_f(z, z0), inv_range, s.fmadd(k, slope, c));
+                vals = s.to_array_f(s.select_f(hit, d, nothing));
+                covered += s.mask_popcnt(hit) as u64;
+            }
+            let rows_here = (th - by).min(4) as usize;
+            let cols_here = (tw - bx).min(4) as usize;
+            for rr in 0..rows_here {
+                for cc in 0..cols_here {
+                    rows[by as usize + rr][bx as usize + cc].write(vals[4 * rr + cc]);
+                }
+            }
+            s.scalar_ops(2 * (rows_here * cols_here) as u64);
+        }
+    }
+    covered
+}

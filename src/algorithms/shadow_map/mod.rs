@@ -1,0 +1,294 @@
+//! The shadow-map family on sism's machinery: light-view depth maps by the binned rasterizer
+//! ([`depth_map`]), then per receiver a lookup kernel ([`lookup`]):
+//!
+//! * `shadow-map`: the hard test at the receiver's texel (nearest texel): lit when its normalised
+//!   depth is at most the map's (which carries the bias).
+//! * `pcf`: the mean of the hard tests over an N×N box of texels around it (Reeves et al. 1987).
+//! * `pcss` (Fernando 2005): a blocker search over the image-plane region where a blocker at the
+//!   nearest depth the map holds, `z_min`, could hide part of the receiver's light disk — radius
+//!   `r (1/z_min − 1/z_r)` — the blockers' mean depth `z_b`, the penumbra width
+//!   `w = r (z_r − z_b) / z_b` at the receiver (Fernando's `w_light (d_r − d_b)/d_b` with `w_light` the
+//!   light's radius), and PCF over the image-plane radius `w / z_r = r (1/z_b − 1/z_r)`. Tap patterns
+//!   are a Poisson disk (best-candidate) or a regular grid; radii are capped at
+//!   [`lookup::MAX_PCSS_RADIUS`] texels.
+//!
+//! The maps look from the light's centre. `V` is the lit fraction of taps (no horizon term: a shadow
+//! map knows nothing of the receiver's own tangent plane). Phases: `light_samples` (SISM's: receivers
+//! facing the light, the light view), `depth_map` (the rasterizer's steps per face, then
+//! `depth_min`), `lookup` (steps `lookup` and `scatter`). All of them kernels: `--machine` times them.
+
+pub mod depth_map;
+pub mod lookup;
+
+use rayon::prelude::*;
+
+use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::algorithms::sism::light_samples;
+use crate::exec::{task_kind, FrameLog};
+use crate::stats::StatsReport;
+use depth_map::{LightMaps, MapParams};
+use lookup::{LookupCounts, LookupTask, Method};
+
+/// Receivers per lookup task.
+pub const LOOKUP_CHUNK: usize = 4096;
+
+crate::declare_stats! {
+    /// Counters of a shadow-map frame.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct ShadowMapStats {
+        /// Light faces (maps): 1 frustum or 6 cube faces.
+        pub faces: u64 => ("shadow_map.faces", "maps", "depth maps rendered (1 frustum or 6 cube faces)"),
+        /// Map side.
+        pub map_size: u64 => ("shadow_map.map_size", "texels", "side of each depth map"),
+        /// Texels written over all maps.
+        pub texels_written: u64 => ("shadow_map.texels_written", "texels", "texels of all maps written"),
+        /// Texels that see a surface.
+        pub texels_covered: u64 => ("shadow_map.texels_covered", "texels", "texels that see a surface"),
+        /// Receivers looked up (facing the light).
+        pub fragments: u64 => ("shadow_map.fragments", "fragments", "receivers tested against the maps"),
+        /// Map reads.
+        pub taps: u64 => ("shadow_map.taps", "taps", "map reads (gather lanes) over all receivers"),
+        /// Taps per receiver, mean.
+        pub taps_per_fragment: f64 => ("shadow_map.taps_per_fragment", "taps", "map reads per receiver (mean)"),
+        /// Receivers whose visibility differs from the plain hard test's.
+        pub differs_from_hard: u64 => ("shadow_map.differs_from_hard", "fragments", "receivers whose result differs from the plain hard test"),
+        /// PCSS: receivers without blockers.
+        pub no_blocker: u64 => ("shadow_map.no_blocker", "fragments", "PCSS receivers whose blocker search found nothing (no filter)"),
+    }
+}
+
+/// The family's map parameters.
+const MAP_SIZE: ParamSpec = ParamSpec {
+    key: "map_size",
+    kind: ParamKind::Int { min: 256, max: 8192 },
+    default: "2048",
+    description: "side of each light-view depth map, texels",
+};
+const BIAS_CONSTANT: ParamSpec = ParamSpec {
+    key: "bias_constant",
+    kind: ParamKind::Float { min: 0.0, max: 0.1 },
+    default: "1e-5",
+    description: "constant depth bias, normalised depth (a face's receivers span [0, 1])",
+};
+const BIAS_SLOPE: ParamSpec = ParamSpec {
+    key: "bias_slope",
+    kind: ParamKind::Float { min: 0.0, max: 16.0 },
+    default: "1.5",
+    description: "slope-scaled depth bias: times the surface's largest depth change per texel",
+};
+const PCF_N: ParamSpec = ParamSpec {
+    key: "n",
+    kind: ParamKind::OddInt { min: 1, max: 33 },
+    default: "3",
+    description: "PCF box side, texels",
+};
+
+const HARD_PARAMS: [ParamSpec; 3] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE];
+const PCF_PARAMS: [ParamSpec; 4] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE, PCF_N];
+const PCSS_PARAMS: [ParamSpec; 6] = [
+    MAP_SIZE,
+    BIAS_CONSTANT,
+    BIAS_SLOPE,
+    ParamSpec {
+        key: "blocker_samples",
+        kind: ParamKind::Int { min: 1, max: 64 },
+        default: "16",
+        description: "taps of the blocker search",
+    },
+    ParamSpec {
+        key: "filter_samples",
+        kind: ParamKind::Int { min: 1, max: 256 },
+        default: "16",
+        description: "taps of the PCF filter",
+    },
+    ParamSpec {
+        key: "pattern",
+        kind: ParamKind::Choice(&["poisson", "grid"]),
+        default: "poisson",
+        description: "tap pattern: a Poisson disk or a regular grid over the square",
+    },
+];
+
+/// `shadow-map`: the hard test.
+pub static SHADOW_MAP: super::Algorithm = super::Algorithm {
+    name: "shadow-map",
+    family: Family::ShadowMap,
+    summary: "hard shadows: a light-centre depth map by the binned rasterizer, the nearest texel's test",
+    params: &HARD_PARAMS,
+    receivers: ReceiverSource::Raster,
+    kernels: true,
+    bench: BenchPlan::Sweep {
+        key: "map_size",
+        values: &["512", "1024", "2048", "4096"],
+    },
+    run: |inputs, params, log| run(inputs, params, log, Method::Hard),
+};
+
+/// `pcf`: percentage-closer filtering.
+pub static PCF: super::Algorithm = super::Algorithm {
+    name: "pcf",
+    family: Family::ShadowMap,
+    summary: "percentage-closer filtering: the mean hard test over an N×N texel box",
+    params: &PCF_PARAMS,
+    receivers: ReceiverSource::Raster,
+    kernels: true,
+    bench: BenchPlan::Sweep {
+        key: "n",
+        values: &["3", "9", "17"],
+    },
+    run: |inputs, params, log| {
+        let n = params.int("n") as u32;
+        run(inputs, params, log, Method::Pcf { n })
+    },
+};
+
+/// `pcss`: percentage-closer soft shadows.
+pub static PCSS: super::Algorithm = super::Algorithm {
+    name: "pcss",
+    family: Family::ShadowMap,
+    summary:
+        "percentage-closer soft shadows (Fernando 2005): blocker search, mean blocker depth, PCF of the \
+penumbra width",
+    params: &PCSS_PARAMS,
+    receivers: ReceiverSource::Raster,
+    kernels: true,
+    bench: BenchPlan::Sweep {
+        key: "filter_samples",
+        values: &["16", "64"],
+    },
+    run: |inputs, params, log| {
+        let pattern = |n: i64| {
+            let n = n as usize;
+            if params.choice("pattern") == "grid" {
+                lookup::regular_grid(n)
+            } else {
+                lookup::poisson_disk(n)
+            }
+        };
+        let method = Method::Pcss {
+            radius: inputs.prepared.scene.light.radius,
+            blocker: pattern(params.int("blocker_samples")),
+            filter: pattern(params.int("filter_samples")),
+        };
+        run(inputs, params, log, method)
+    },
+};
+
+/// The map parameters of checked `params`.
+pub fn map_params(params: &Params) -> MapParams {
+    MapParams {
+        size: params.int("map_size") as u32,
+        bias_constant: params.float("bias_constant") as f32,
+        bias_slope: params.float("bias_slope") as f32,
+    }
+}
+
+/// A shadow-map frame: light samples, depth maps from the light centre, lookups.
+fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Method) -> AlgorithmFrame {
+    let scene = inputs.prepared.scene;
+    let samples = log.phase(
+        "light_samples",
+        "light view fitted to the receivers and their light-space samples",
+        |p| light_samples::build(p, inputs.receivers, &scene.light),
+    );
+    let map_params = map_params(params);
+    let centre = scene.light.center();
+    let maps = log.phase("depth_map", "light-view depth maps (binned rasterizer)", |p| {
+        depth_map::render_maps(p, scene, &samples, centre, &map_params)
+    });
+    let mut visibility = samples.image;
+    let counts = log.phase("lookup", "per-receiver map lookups", |p| {
+        let mut values = vec![0f32; samples.samples.len()];
+        let counts = lookups(
+            p,
+            &maps,
+            &samples.samples,
+            &inputs.receivers.pixels,
+            samples.light.center - centre,
+            &method,
+            &mut values,
+        );
+        let pixels: Vec<u32> = samples.samples.iter().map(|s| s.pixel).collect();
+        crate::algorithms::pixels::scatter_to_pixels(
+            p,
+            "scatter",
+            task_kind::SHADOW_SCATTER,
+            &pixels,
+            &values,
+            &mut visibility.values,
+        );
+        counts
+    });
+    let n = map_params.size as u64;
+    let stats = ShadowMapStats {
+        faces: maps.faces.len() as u64,
+        map_size: n,
+        texels_written: maps.faces.len() as u64 * n * n,
+        texels_covered: maps
+            .faces
+            .iter()
+            .map(|f| f.depth.iter().filter(|d| d.is_finite()).count() as u64)
+            .sum(),
+        fragments: counts.fragments,
+        taps: counts.taps,
+        taps_per_fragment: if counts.fragments == 0 {
+            0.0
+        } else {
+            counts.taps as f64 / counts.fragments as f64
+        },
+        differs_from_hard: counts.differs_from_hard,
+        no_blocker: counts.no_blocker,
+    };
+    let mut out = StatsReport::default();
+    out.rows(&stats);
+    AlgorithmFrame {
+        visibility,
+        stats: out,
+    }
+}
+
+/// Looks every sample (grouped by face) up in its face's map, as tasks of [`LOOKUP_CHUNK`] samples of
+/// step `lookup`; writes the visibilities into `values` (sample order).
+pub fn lookups(
+    phase: &mut crate::exec::Phase,
+    maps: &LightMaps,
+    samples: &[crate::algorithms::sism::grid::SampleIn],
+    receivers: &[Option<crate::frame::Receiver>],
+    shift: glam::Vec3,
+    method: &Method,
+    values: &mut [f32],
+) -> LookupCounts {
+    // Tasks never straddle a face: chunk each face's run of samples.
+    let mut tasks = Vec::new();
+    let mut rest: &mut [f32] = values;
+    let mut start = 0;
+    while start < samples.len() {
+        let face = samples[start].face;
+        let end = start + samples[start..].partition_point(|s| s.face == face);
+        let mut k = start;
+        while k < end {
+            let stop = (k + LOOKUP_CHUNK).min(end);
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(stop - k);
+            tasks.push((face, k..stop, head));
+            rest = tail;
+            k = stop;
+        }
+        start = end;
+    }
+    let counts = phase.run_par(
+        "lookup",
+        tasks.into_par_iter().map(|(face, range, out)| LookupTask {
+            map: &maps.faces[face as usize],
+            receivers,
+            shift,
+            samples: &samples[range],
+            method,
+            out,
+        }),
+    );
+    let mut total = LookupCounts::default();
+    for c in counts {
+        total += c;
+    }
+    total
+}
