@@ -361,6 +361,17 @@ mod tests {
                 ("pcf", "17"),
                 ("pcss", "16"),
                 ("pcss", "64"),
+                ("smsr", "512"),
+                ("smsr", "1024"),
+                ("smsr", "2048"),
+                ("smsr", "4096"),
+                ("rsmss", "512"),
+                ("rsmss", "1024"),
+                ("rsmss", "2048"),
+                ("rsmss", "4096"),
+                ("rpcf-smsr", "-"),
+                ("rpcf-rsmss", "2"),
+                ("rpcf-rsmss", "4"),
             ]
         );
     }

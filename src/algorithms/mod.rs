@@ -9,6 +9,7 @@
 
 pub mod params;
 pub mod pixels;
+pub mod rbsm;
 pub mod reference;
 pub mod shadow_map;
 pub mod sism;
@@ -140,6 +141,10 @@ pub static REGISTRY: &[&Algorithm] = &[
     &shadow_map::SHADOW_MAP,
     &shadow_map::PCF,
     &shadow_map::PCSS,
+    &rbsm::SMSR,
+    &rbsm::RSMSS,
+    &rbsm::RPCF_SMSR,
+    &rbsm::RPCF_RSMSS,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

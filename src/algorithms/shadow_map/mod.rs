@@ -83,7 +83,9 @@ const PCF_N: ParamSpec = ParamSpec {
     description: "PCF box side, texels",
 };
 
-const HARD_PARAMS: [ParamSpec; 3] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE];
+/// The depth-map parameters every method of the family takes.
+pub const MAP_PARAMS: [ParamSpec; 3] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE];
+const HARD_PARAMS: [ParamSpec; 3] = MAP_PARAMS;
 const PCF_PARAMS: [ParamSpec; 4] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE, PCF_N];
 const PCSS_PARAMS: [ParamSpec; 6] = [
     MAP_SIZE,

@@ -1,0 +1,438 @@
+//! Revectorization-based shadow mapping (Macedo and Apolinário, GI 2016): `smsr`, `rsmss`,
+//! `rpcf-smsr`, `rpcf-rsmss`, on the shadow-map family's depth maps ([`super::shadow_map`]), with the
+//! visibility functions of [`visibility`] (which version of each: see there).
+//!
+//! The lookup kernel works 16 fragments a vector: their map positions (each lane projected as the
+//! scalar functions do, so both see the same fragment), the centre and 4-neighbour tests as gathers,
+//! and the result of every lane without a discontinuity (the plain test) in vector form; lanes with a
+//! discontinuity — a few percent — run the scalar walks and cases, their work counted as scalar
+//! instructions (about 12 per walk or scan step; the walks' texel reads are not in the line stream).
+
+pub mod visibility;
+
+use rayon::prelude::*;
+use sism_simd::{Kernel, Mask16, Simd};
+
+use super::shadow_map::depth_map::{self, FaceMap, LightMaps};
+use super::shadow_map::{map_params, LOOKUP_CHUNK};
+use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::algorithms::sism::grid::SampleIn;
+use crate::algorithms::sism::light_samples;
+use crate::exec::{task_kind, FrameLog, Phase};
+use crate::stats::{percentiles, Dist, StatsReport};
+use visibility::{Function, Settings};
+
+/// Which revectorization method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// One fragment's `v_SMSR` or `v_RSMSS`.
+    Single(Function),
+    /// RPCF over `(K + 1)²` taps of `function` (kernel order `k`, penumbra size `p` texels).
+    Rpcf { function: Function, k: u32, p: f32 },
+}
+
+crate::declare_stats! {
+    /// Counters of a revectorization frame.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct RbsmStats {
+        /// Light faces (maps).
+        pub faces: u64 => ("rbsm.faces", "maps", "depth maps rendered (1 frustum or 6 cube faces)"),
+        /// Map side.
+        pub map_size: u64 => ("rbsm.map_size", "texels", "side of each depth map"),
+        /// Texels written.
+        pub texels_written: u64 => ("rbsm.texels_written", "texels", "texels of all maps written"),
+        /// Receivers looked up.
+        pub fragments: u64 => ("rbsm.fragments", "fragments", "receivers tested against the maps"),
+        /// Taps per receiver (1, or RPCF's (K + 1)²).
+        pub taps_per_fragment: u64 => ("rbsm.taps_per_fragment", "taps", "visibility evaluations per receiver"),
+        /// Receivers with a discontinuity at some tap (the scalar walks ran).
+        pub flagged: u64 => ("rbsm.flagged", "fragments", "receivers with a discontinuity (revectorized)"),
+        /// Walk and scan steps per flagged receiver.
+        pub steps: Dist => ("dist.rbsm_steps", "steps", "ONDS walk and case-scan steps per flagged receiver (distribution)"),
+        /// Receivers whose result differs from the plain hard test's.
+        pub differs_from_hard: u64 => ("rbsm.differs_from_hard", "fragments", "receivers whose result differs from the plain hard test"),
+    }
+}
+
+const MAX_SEARCH: ParamSpec = ParamSpec {
+    key: "max_search",
+    kind: ParamKind::Int { min: 1, max: 256 },
+    default: "16",
+    description: "steps of an ONDS walk (the paper's maximum edge length), texels",
+};
+const EPSILON: ParamSpec = ParamSpec {
+    key: "epsilon",
+    kind: ParamKind::Float { min: 0.0, max: 0.01 },
+    default: "2.5e-5",
+    description: "depth threshold of the sloped-surface rule, normalised depth (the paper's 2.5e-5)",
+};
+const KERNEL_ORDER: ParamSpec = ParamSpec {
+    key: "kernel_order",
+    kind: ParamKind::Int { min: 1, max: 32 },
+    default: "2",
+    description: "RPCF kernel order K: (K + 1)² taps (2: the paper's 3×3)",
+};
+const PENUMBRA_SIZE: ParamSpec = ParamSpec {
+    key: "penumbra_size",
+    kind: ParamKind::Float { min: 0.1, max: 16.0 },
+    default: "1",
+    description: "RPCF half-width P: taps from −P to P texels",
+};
+
+const SINGLE_PARAMS: [ParamSpec; 5] = [
+    depth_map_param(0),
+    depth_map_param(1),
+    depth_map_param(2),
+    MAX_SEARCH,
+    EPSILON,
+];
+const RPCF_PARAMS: [ParamSpec; 7] = [
+    depth_map_param(0),
+    depth_map_param(1),
+    depth_map_param(2),
+    MAX_SEARCH,
+    EPSILON,
+    KERNEL_ORDER,
+    PENUMBRA_SIZE,
+];
+
+/// The shadow-map family's map parameters (`map_size`, `bias_constant`, `bias_slope`).
+const fn depth_map_param(k: usize) -> ParamSpec {
+    super::shadow_map::MAP_PARAMS[k]
+}
+
+/// Registry entry of one revectorization method.
+macro_rules! rbsm_algorithm {
+    ($name:ident, $key:literal, $summary:literal, $params:expr, $plan:expr, $method:expr) => {
+        #[doc = concat!("`", $key, "`: ", $summary)]
+        pub static $name: super::Algorithm = super::Algorithm {
+            name: $key,
+            family: Family::ShadowMap,
+            summary: $summary,
+            params: $params,
+            receivers: ReceiverSource::Raster,
+            kernels: true,
+            bench: $plan,
+            run: |inputs, params, log| run(inputs, params, log, ($method)(params)),
+        };
+    };
+}
+
+fn rpcf(function: Function) -> impl Fn(&Params) -> Method {
+    move |params| Method::Rpcf {
+        function,
+        k: params.int("kernel_order") as u32,
+        p: params.float("penumbra_size") as f32,
+    }
+}
+
+rbsm_algorithm!(
+    SMSR,
+    "smsr",
+    "single-pass shadow-map silhouette revectorization (paper-era v_SMSR): jagged hard-shadow edges straightened",
+    &SINGLE_PARAMS,
+    BenchPlan::Sweep { key: "map_size", values: &["512", "1024", "2048", "4096"] },
+    |_: &Params| Method::Single(Function::Smsr)
+);
+rbsm_algorithm!(
+    RSMSS,
+    "rsmss",
+    "revectorization-based silhouette smoothing (ReallyOptimized v_RSMSS): revectorized edges, filtered over one texel",
+    &SINGLE_PARAMS,
+    BenchPlan::Sweep { key: "map_size", values: &["512", "1024", "2048", "4096"] },
+    |_: &Params| Method::Single(Function::Rsmss)
+);
+rbsm_algorithm!(
+    RPCF_SMSR,
+    "rpcf-smsr",
+    "revectorization-based PCF over v_SMSR taps (2017 generalisation, (K+1)² taps)",
+    &RPCF_PARAMS,
+    BenchPlan::Defaults,
+    |p: &Params| rpcf(Function::Smsr)(p)
+);
+rbsm_algorithm!(
+    RPCF_RSMSS,
+    "rpcf-rsmss",
+    "revectorization-based PCF over v_RSMSS taps (2017 generalisation, (K+1)² taps)",
+    &RPCF_PARAMS,
+    BenchPlan::Sweep {
+        key: "kernel_order",
+        values: &["2", "4"]
+    },
+    |p: &Params| rpcf(Function::Rsmss)(p)
+);
+
+/// The settings of checked `params`.
+fn settings(params: &Params) -> Settings {
+    Settings {
+        max_search: params.int("max_search") as i32,
+        epsilon: params.float("epsilon") as f32,
+    }
+}
+
+/// A revectorization frame: light samples, depth maps from the light centre, lookups.
+fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Method) -> AlgorithmFrame {
+    let scene = inputs.prepared.scene;
+    let samples = log.phase(
+        "light_samples",
+        "light view fitted to the receivers and their light-space samples",
+        |p| light_samples::build(p, inputs.receivers, &scene.light),
+    );
+    let mp = map_params(params);
+    let centre = scene.light.center();
+    let maps = log.phase("depth_map", "light-view depth maps (binned rasterizer)", |p| {
+        depth_map::render_maps(p, scene, &samples, centre, &mp)
+    });
+    let s = settings(params);
+    let mut visibility = samples.image;
+    let out = log.phase("lookup", "revectorization lookups", |p| {
+        let mut values = vec![0f32; samples.samples.len()];
+        let out = lookups(
+            p,
+            &maps,
+            &samples.samples,
+            samples.light.center - centre,
+            method,
+            &s,
+            &mut values,
+        );
+        let pixels: Vec<u32> = samples.samples.iter().map(|s| s.pixel).collect();
+        crate::algorithms::pixels::scatter_to_pixels(
+            p,
+            "scatter",
+            task_kind::SHADOW_SCATTER,
+            &pixels,
+            &values,
+            &mut visibility.values,
+        );
+        out
+    });
+    let n = mp.size as u64;
+    let stats = RbsmStats {
+        faces: maps.faces.len() as u64,
+        map_size: n,
+        texels_written: maps.faces.len() as u64 * n * n,
+        fragments: out.fragments,
+        taps_per_fragment: match method {
+            Method::Single(_) => 1,
+            Method::Rpcf { k, .. } => (k as u64 + 1).pow(2),
+        },
+        flagged: out.steps.len() as u64,
+        steps: percentiles(out.steps.iter().map(|&s| s as u64)),
+        differs_from_hard: out.differs_from_hard,
+    };
+    let mut rows = StatsReport::default();
+    rows.rows(&stats);
+    AlgorithmFrame {
+        visibility,
+        stats: rows,
+    }
+}
+
+/// What the lookup tasks report.
+#[derive(Default)]
+struct LookupOut {
+    fragments: u64,
+    differs_from_hard: u64,
+    /// Steps of every flagged fragment.
+    steps: Vec<u32>,
+}
+
+/// Looks every sample (grouped by face) up in its face's map, as tasks of [`LOOKUP_CHUNK`] samples of
+/// step `lookup`; visibilities into `values` (sample order).
+fn lookups(
+    phase: &mut Phase,
+    maps: &LightMaps,
+    samples: &[SampleIn],
+    shift: glam::Vec3,
+    method: Method,
+    s: &Settings,
+    values: &mut [f32],
+) -> LookupOut {
+    let mut tasks = Vec::new();
+    let mut rest: &mut [f32] = values;
+    let mut start = 0;
+    while start < samples.len() {
+        let face = samples[start].face;
+        let end = start + samples[start..].partition_point(|s| s.face == face);
+        let mut k = start;
+        while k < end {
+            let stop = (k + LOOKUP_CHUNK).min(end);
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(stop - k);
+            tasks.push((face, k..stop, head));
+            rest = tail;
+            k = stop;
+        }
+        start = end;
+    }
+    let outs = phase.run_par(
+        "lookup",
+        tasks.into_par_iter().map(|(face, range, out)| RbsmLookup {
+            map: &maps.faces[face as usize],
+            shift,
+            samples: &samples[range],
+            method,
+            settings: *s,
+            out,
+        }),
+    );
+    let mut total = LookupOut::default();
+    for o in outs {
+        total.fragments += o.fragments;
+        total.differs_from_hard += o.differs_from_hard;
+        total.steps.extend(o.steps);
+    }
+    total
+}
+
+/// One lookup task of a face.
+struct RbsmLookup<'a> {
+    map: &'a FaceMap,
+    shift: glam::Vec3,
+    samples: &'a [SampleIn],
+    method: Method,
+    settings: Settings,
+    out: &'a mut [f32],
+}
+
+/// The test of texel `(ix + dx, iy + dy)` for 16 fragments at depths `z` (lanes `m`), by a gather;
+/// outside the map is shadowed.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn lit_at<S: Simd>(
+    s: S,
+    map: &FaceMap,
+    m: Mask16,
+    ix: S::I32,
+    iy: S::I32,
+    dx: i32,
+    dy: i32,
+    z: S::F32,
+) -> Mask16 {
+    let (jx, jy) = (s.add_i(ix, s.splat_i(dx)), s.add_i(iy, s.splat_i(dy)));
+    let n = s.splat_i(map.size as i32);
+    let zero = s.splat_i(0);
+    let inside = s.mask_and(
+        m,
+        s.mask_and(
+            s.mask_and(s.cmp_ge_i(jx, zero), s.cmp_lt_i(jx, n)),
+            s.mask_and(s.cmp_ge_i(jy, zero), s.cmp_lt_i(jy, n)),
+        ),
+    );
+    let d = s.mask_gather_f(
+        s.splat_f(f32::NEG_INFINITY),
+        inside,
+        &map.depth,
+        s.add_i(s.mul_i(jy, n), jx),
+    );
+    s.mask_and(m, s.cmp_le_f(z, d))
+}
+
+/// The centre test and whether any 4-neighbour differs, for 16 fragments at map positions `(x, y)`
+/// and depths `z` (lanes `m`).
+#[inline(always)]
+fn plain_and_flagged<S: Simd>(
+    s: S,
+    map: &FaceMap,
+    m: Mask16,
+    x: S::F32,
+    y: S::F32,
+    z: S::F32,
+) -> (Mask16, Mask16) {
+    let (ix, iy) = (s.floor_i(x), s.floor_i(y));
+    let c = lit_at(s, map, m, ix, iy, 0, 0, z);
+    let mut flagged = Mask16::NONE;
+    for (dx, dy) in [(-1, 0), (1, 0), (0, 1), (0, -1)] {
+        let n = lit_at(s, map, m, ix, iy, dx, dy, z);
+        flagged = s.mask_or(flagged, s.mask_xor(n, c));
+    }
+    (c, s.mask_and(m, flagged))
+}
+
+impl Kernel for RbsmLookup<'_> {
+    type Output = LookupOut;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> LookupOut {
+        s.begin_task(task_kind::SHADOW_LOOKUP);
+        let map = self.map;
+        let mut out = LookupOut::default();
+        let taps: Vec<(f32, f32)> = match self.method {
+            Method::Single(_) => vec![(0.0, 0.0)],
+            Method::Rpcf { k, p, .. } => {
+                let step = 2.0 * p / k as f32;
+                let mut offsets = Vec::new();
+                let mut w = -p;
+                while w <= p {
+                    offsets.push(w);
+                    w += step;
+                }
+                offsets
+                    .iter()
+                    .flat_map(|&h| offsets.iter().map(move |&w| (w, h)))
+                    .collect()
+            }
+        };
+        let function = match self.method {
+            Method::Single(f) | Method::Rpcf { function: f, .. } => f,
+        };
+        let mut i = 0;
+        while i < self.samples.len() {
+            let chunk = &self.samples[i..(i + 16).min(self.samples.len())];
+            let m = s.mask_first_n(chunk.len());
+            // Each lane's position exactly as the scalar functions see it.
+            let (mut xs, mut ys, mut zs, mut front) = ([0f32; 16], [0f32; 16], [0f32; 16], 0u16);
+            for (lane, smp) in chunk.iter().enumerate() {
+                let f = map.face.to_face(smp.q + self.shift);
+                if f.z > 0.0 {
+                    let (pos, d) = map.project_face(f);
+                    (xs[lane], ys[lane], zs[lane]) = (pos.x, pos.y, d);
+                    front |= 1 << lane;
+                }
+            }
+            s.scalar_read(chunk);
+            s.scalar_ops(20 * chunk.len() as u64);
+            let valid = s.mask_and(m, Mask16(front));
+            let (x, y, z) = (s.from_array_f(xs), s.from_array_f(ys), s.from_array_f(zs));
+            let (hard, _) = plain_and_flagged(s, map, valid, x, y, z);
+            // Taps: lanes without a discontinuity keep the plain test; the others run the functions.
+            let mut sum = s.splat_f(0.0);
+            let mut flagged_any = Mask16::NONE;
+            let mut steps = [0u32; 16];
+            for &(w, h) in &taps {
+                let (tx, ty) = (s.add_f(x, s.splat_f(w)), s.add_f(y, s.splat_f(h)));
+                let (c, flagged) = plain_and_flagged(s, map, valid, tx, ty, z);
+                flagged_any = s.mask_or(flagged_any, flagged);
+                // Without a discontinuity both functions give the plain test (v_SMSR: 1 lit, 0
+                // shadowed; v_RSMSS: the test; RSMSS's speck filter only removes flags).
+                let plain = s.select_f(c, s.splat_f(1.0), s.splat_f(0.0));
+                let mut tap = s.to_array_f(plain);
+                for lane in flagged.iter() {
+                    let (v, work) = visibility::visibility(
+                        map,
+                        xs[lane] + w,
+                        ys[lane] + h,
+                        zs[lane],
+                        function,
+                        &self.settings,
+                    );
+                    tap[lane] = v;
+                    steps[lane] += work.steps;
+                    s.scalar_ops(40 + 12 * work.steps as u64);
+                }
+                sum = s.add_f(sum, s.from_array_f(tap));
+            }
+            let v = s.div_f(sum, s.splat_f(taps.len() as f32));
+            let v = s.select_f(valid, v, s.splat_f(0.0));
+            for lane in flagged_any.iter() {
+                out.steps.push(steps[lane]);
+            }
+            let hard_f = s.select_f(hard, s.splat_f(1.0), s.splat_f(0.0));
+            out.differs_from_hard += s.mask_popcnt(s.mask_and(m, s.cmp_ne_f(v, hard_f))) as u64;
+            out.fragments += chunk.len() as u64;
+            s.mask_store_f(&mut self.out[i..], m, v);
+            i += 16;
+        }
+        s.end_task();
+        out
+    }
+}
