@@ -6,6 +6,7 @@ mod convergence;
 mod golden;
 mod hardening;
 mod obj_loading;
+mod rbsm;
 mod registry;
 mod shadow_maps;
 mod shared_scenes;

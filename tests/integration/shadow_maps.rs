@@ -99,6 +99,42 @@ fn the_hard_test_converges_to_the_point_light_reference_without_acne() {
     assert!(maes[3] < 0.004, "{maes:?}");
 }
 
+/// A lone ground quad lit from 20° above the horizon: nothing shadows it.
+fn grazing_ground() -> Scene {
+    let text = "[[quad]]\ncorner = [-4.0, 0.0, 4.0]\nedge_u = [8.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -8.0]\n\
+                [camera]\neye = [0.0, 3.0, 6.0]\nlook_at = [0.0, 0.0, 0.0]\nfov_y_deg = 50.0\nwidth = 160\nheight = 120\n\
+                [light]\ncenter = [-11.0, 4.0, 0.0]\nradius = 0.0\n";
+    Scene::from_toml(text, Path::new("/virtual/grazing-ground.toml")).unwrap()
+}
+
+#[test]
+fn filter_taps_do_not_shadow_a_surface_lit_at_a_grazing_angle() {
+    // Each tap compares the map with the receiver's tangent plane along the tap's own ray; comparing
+    // it with the receiver's depth would shadow the plane in every tap nearer the light (acne).
+    let scene = grazing_ground();
+    for (algorithm, given) in [
+        ("shadow-map", &[][..]),
+        ("pcf", &[("n", "9")][..]),
+        ("pcss", &[][..]),
+        ("smsr", &[][..]),
+        ("rsmss", &[][..]),
+        ("rpcf-smsr", &[][..]),
+        ("rpcf-rsmss", &[("kernel_order", "4")][..]),
+    ] {
+        let r = run(&scene, algorithm, given, Exec::Native);
+        let (mut seen, mut dimmed) = (0, 0);
+        for &v in r.visibility.values.iter().filter(|v| !v.is_nan()) {
+            seen += 1;
+            dimmed += (v < 1.0) as usize;
+        }
+        assert!(seen > 10_000, "{algorithm}: {seen} receivers");
+        assert!(
+            dimmed * 1000 < seen,
+            "{algorithm}: {dimmed} of {seen} receivers dimmed"
+        );
+    }
+}
+
 /// Two plates at different heights over the ground: their penumbrae overlap.
 fn two_plates() -> Scene {
     let text = "[[quad]]\ncorner = [-4.0, 0.0, 4.0]\nedge_u = [8.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -8.0]\n\
@@ -173,6 +209,14 @@ fn bad_parameters_are_clear_errors() {
         ("pcss", "filter_samples=0", &["`filter_samples`"]),
         ("pcss", "pattern=hex", &["poisson|grid"]),
         ("pcss", "nope=1", &["`nope`", "is unknown"]),
+        ("smsr", "map_size=100000", &["`map_size`", "256..=8192"]),
+        ("smsr", "max_search=0", &["`max_search`", "1..=256"]),
+        ("rsmss", "epsilon=-1", &["`epsilon`"]),
+        ("rsmss", "epsilon=nan", &["`epsilon`"]),
+        ("rpcf-smsr", "kernel_order=0", &["`kernel_order`", "1..=32"]),
+        ("rpcf-rsmss", "penumbra_size=1e9", &["`penumbra_size`"]),
+        ("rpcf-rsmss", "kernel_order=2.5", &["`kernel_order`"]),
+        ("rsmss", "n=3", &["`n`", "is unknown"]),
     ] {
         assert_clean_failure(&render(algo, param), needles);
     }

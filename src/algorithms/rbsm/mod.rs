@@ -96,9 +96,22 @@ const RPCF_PARAMS: [ParamSpec; 7] = [
     PENUMBRA_SIZE,
 ];
 
-/// The shadow-map family's map parameters (`map_size`, `bias_constant`, `bias_slope`).
+/// The shadow-map family's map parameters (`map_size`, `bias_constant`, `bias_slope`), with the slope
+/// bias of the paper's maps: `glPolygonOffset(4, 20)`, 4 times the largest depth change per texel.
+/// The visibility functions compare one depth with the 3×3 texels around the fragment's (and RPCF's
+/// taps reach a texel further), so the bias must cover the receiver's own slope that far; the plain
+/// family's 1.5 shadows tilted receivers at their neighbours' texels.
 const fn depth_map_param(k: usize) -> ParamSpec {
-    super::shadow_map::MAP_PARAMS[k]
+    let spec = super::shadow_map::MAP_PARAMS[k];
+    if k == 2 {
+        ParamSpec {
+            default: "4",
+            description: "slope-scaled depth bias: times the surface's largest depth change per texel (the paper's polygon offset factor 4)",
+            ..spec
+        }
+    } else {
+        spec
+    }
 }
 
 /// Registry entry of one revectorization method.
@@ -434,5 +447,149 @@ impl Kernel for RbsmLookup<'_> {
         }
         s.end_task();
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::algorithms::sism::light_view::LightFace;
+    use glam::{Vec2, Vec3};
+
+    /// A 64² face map seen along +z from the origin: a sloped receiver plane under random occluding
+    /// rectangles (depths normalised over `z` in [1, 3]).
+    fn random_map(seed: u64) -> FaceMap {
+        let mut state = seed;
+        let mut rnd = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let size = 64usize;
+        let (a, b, c) = (0.3 + 0.4 * rnd(), 0.004 * rnd(), 0.004 * rnd());
+        let mut depth: Vec<f32> = (0..size * size)
+            .map(|i| a + b * (i % size) as f32 + c * (i / size) as f32)
+            .collect();
+        for _ in 0..12 {
+            let (x0, y0) = ((rnd() * 60.0) as usize, (rnd() * 60.0) as usize);
+            let (w, h) = (1 + (rnd() * 20.0) as usize, 1 + (rnd() * 20.0) as usize);
+            let d = 0.3 * rnd();
+            for y in y0..(y0 + h).min(size) {
+                for x in x0..(x0 + w).min(size) {
+                    depth[y * size + x] = depth[y * size + x].min(d);
+                }
+            }
+        }
+        FaceMap {
+            face: LightFace {
+                axis: Vec3::Z,
+                right: Vec3::X,
+                up: Vec3::Y,
+            },
+            origin: Vec3::ZERO,
+            extent: 1.0,
+            size: size as u32,
+            z0: 1.0,
+            inv_range: 0.5,
+            depth,
+            z_min: 1.0,
+        }
+    }
+
+    /// Fragments on the receiver plane (so the ε rule triggers), some beyond the map's edge.
+    fn fragments(map: &FaceMap, n: usize) -> Vec<SampleIn> {
+        let size = map.size as f32;
+        (0..n)
+            .map(|i| {
+                let (x, y) = (
+                    -2.0 + (size + 4.0) * ((i * 37 % 211) as f32 + 0.37) / 211.0,
+                    -2.0 + (size + 4.0) * ((i * 53 % 197) as f32 + 0.61) / 197.0,
+                );
+                let (ix, iy) = (x.floor().clamp(0.0, size - 1.0), y.floor().clamp(0.0, size - 1.0));
+                // The plane's own depth at the texel, nudged so some fragments sit just behind it.
+                let d = map.depth[(iy as usize) * map.size as usize + ix as usize].max(0.3)
+                    + 1e-5 * (i % 7) as f32;
+                let z = map.z0 + d / map.inv_range;
+                let u = (2.0 * x / size - 1.0) * map.extent;
+                let v = (1.0 - 2.0 * y / size) * map.extent;
+                SampleIn {
+                    q: Vec3::new(u * z, v * z, z),
+                    face: 0,
+                    uv: Vec2::ZERO,
+                    depth: z,
+                    pixel: i as u32,
+                    cos_theta: 1.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_lookup_kernel_equals_the_scalar_functions_on_every_backend() {
+        let settings = Settings {
+            max_search: 16,
+            epsilon: 2.5e-5,
+        };
+        let methods = [
+            Method::Single(Function::Smsr),
+            Method::Single(Function::Rsmss),
+            Method::Rpcf {
+                function: Function::Smsr,
+                k: 2,
+                p: 1.0,
+            },
+            Method::Rpcf {
+                function: Function::Rsmss,
+                k: 3,
+                p: 1.5,
+            },
+        ];
+        let mut flagged = 0;
+        for seed in 1..=8u64 {
+            let map = random_map(seed);
+            let samples = fragments(&map, 2000);
+            for method in methods {
+                let scalar: Vec<f32> = samples
+                    .iter()
+                    .map(|smp| {
+                        let (pos, z) = map.project_face(map.face.to_face(smp.q));
+                        match method {
+                            Method::Single(f) => {
+                                visibility::visibility(&map, pos.x, pos.y, z, f, &settings).0
+                            }
+                            Method::Rpcf { function, k, p } => {
+                                visibility::rpcf(&map, pos.x, pos.y, z, function, &settings, k, p).0
+                            }
+                        }
+                    })
+                    .collect();
+                for backend in sism_simd::available_backends() {
+                    let mut out = vec![f32::NAN; samples.len()];
+                    let r = sism_simd::run_with(
+                        backend,
+                        RbsmLookup {
+                            map: &map,
+                            shift: Vec3::ZERO,
+                            samples: &samples,
+                            method,
+                            settings,
+                            out: &mut out,
+                        },
+                    );
+                    flagged += r.steps.len();
+                    for (i, (a, b)) in scalar.iter().zip(&out).enumerate() {
+                        assert_eq!(
+                            a.to_bits(),
+                            b.to_bits(),
+                            "seed {seed} {method:?} {} fragment {i}: scalar {a} kernel {b}",
+                            backend.name()
+                        );
+                    }
+                }
+            }
+        }
+        // The comparison must reach the revectorized cases, not only the plain test.
+        assert!(flagged > 5000, "{flagged} flagged fragments");
     }
 }

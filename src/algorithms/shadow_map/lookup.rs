@@ -239,13 +239,22 @@ impl Kernel for LookupTask<'_> {
                     let mut sum = zero;
                     for dy in -h..=h {
                         for dx in -h..=h {
+                            // The tap's ray is the receiver's, moved by whole texels: the same
+                            // place within its texel as the hard test's.
+                            let d = if dx == 0 && dy == 0 {
+                                p.d
+                            } else {
+                                let x = s.add_f(p.tx, s.splat_f(dx as f32));
+                                let y = s.add_f(p.ty, s.splat_f(dy as f32));
+                                plane_depth(s, map, &p, x, y)
+                            };
                             let t = lit(
                                 s,
                                 map,
                                 p.valid,
                                 s.add_i(ix, s.splat_i(dx)),
                                 s.add_i(iy, s.splat_i(dy)),
-                                p.d,
+                                d,
                             );
                             sum = s.add_f(sum, t);
                         }
