@@ -15,8 +15,10 @@ use sism::machine::MachineConfig;
 use sism::render::{render, render_on_machine, RenderOptions};
 use sism::scene::Scene;
 
-/// (label, algorithm, parameters).
-const METHODS: [(&str, &str, &[(&str, &str)]); 7] = [
+/// A method: label, algorithm, parameters.
+type Method = (&'static str, &'static str, &'static [(&'static str, &'static str)]);
+
+const METHODS: [Method; 7] = [
     ("shadow map", "shadow-map", &[]),
     ("SMSR", "smsr", &[]),
     ("RSMSS", "rsmss", &[]),
