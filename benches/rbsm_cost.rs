@@ -16,7 +16,11 @@ use sism::render::{render, render_on_machine, RenderOptions};
 use sism::scene::Scene;
 
 /// A method: label, algorithm, parameters.
-type Method = (&'static str, &'static str, &'static [(&'static str, &'static str)]);
+type Method = (
+    &'static str,
+    &'static str,
+    &'static [(&'static str, &'static str)],
+);
 
 const METHODS: [Method; 7] = [
     ("shadow map", "shadow-map", &[]),

@@ -253,6 +253,12 @@ impl Phase {
         outs
     }
 
+    /// Notes that the phase's kernel work was skipped (nothing needs it, e.g. a light face no receiver
+    /// falls in): the phase is timed, as zero, rather than listed as untimed host work.
+    pub fn skip(&mut self) {
+        self.modelled = true;
+    }
+
     fn file(&mut self, step: &str, tasks: u64, records: Vec<Vec<TaskRecord>>) {
         self.tasks += tasks;
         self.modelled = true;

@@ -6,7 +6,8 @@
 //! scalar functions do, so both see the same fragment), the centre and 4-neighbour tests as gathers,
 //! and the result of every lane without a discontinuity (the plain test) in vector form; lanes with a
 //! discontinuity — a few percent — run the scalar walks and cases, their work counted as scalar
-//! instructions (about 12 per walk or scan step; the walks' texel reads are not in the line stream).
+//! instructions (about 12 per walk or scan step) and their texel reads as scalar reads (in the line
+//! stream the machine model replays).
 
 pub mod visibility;
 
@@ -35,12 +36,6 @@ crate::declare_stats! {
     /// Counters of a revectorization frame.
     #[derive(Clone, Copy, Debug, Default, PartialEq)]
     pub struct RbsmStats {
-        /// Light faces (maps).
-        pub faces: u64 => ("rbsm.faces", "maps", "depth maps rendered (1 frustum or 6 cube faces)"),
-        /// Map side.
-        pub map_size: u64 => ("rbsm.map_size", "texels", "side of each depth map"),
-        /// Texels written.
-        pub texels_written: u64 => ("rbsm.texels_written", "texels", "texels of all maps written"),
         /// Receivers looked up.
         pub fragments: u64 => ("rbsm.fragments", "fragments", "receivers tested against the maps"),
         /// Taps per receiver (1, or RPCF's (K + 1)²).
@@ -220,11 +215,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         );
         out
     });
-    let n = mp.size as u64;
     let stats = RbsmStats {
-        faces: maps.faces.len() as u64,
-        map_size: n,
-        texels_written: maps.faces.len() as u64 * n * n,
         fragments: out.fragments,
         taps_per_fragment: match method {
             Method::Single(_) => 1,
@@ -235,7 +226,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         differs_from_hard: out.differs_from_hard,
     };
     let mut rows = StatsReport::default();
-    rows.rows(&stats);
+    rows.rows(&maps.stats(mp.size)).rows(&stats);
     AlgorithmFrame {
         visibility,
         stats: rows,
@@ -296,6 +287,30 @@ fn lookups(
         total.steps.extend(o.steps);
     }
     total
+}
+
+/// A face map whose texel reads the scalar walks make are reported to the SIMD context, so a counted
+/// frame's line stream (and the machine model's caches) sees them; natively the report is a no-op.
+struct CountedTexels<'a, S: Simd> {
+    map: &'a FaceMap,
+    s: S,
+}
+
+impl<S: Simd> visibility::DepthTexels for CountedTexels<'_, S> {
+    #[inline(always)]
+    fn depth(&self, x: i64, y: i64) -> f32 {
+        let n = self.map.size as i64;
+        if x < 0 || y < 0 || x >= n || y >= n {
+            return f32::NEG_INFINITY;
+        }
+        let texel = std::slice::from_ref(&self.map.depth[(y * n + x) as usize]);
+        self.s.scalar_read(texel);
+        texel[0]
+    }
+    #[inline(always)]
+    fn inside(&self, x: i64, y: i64) -> bool {
+        visibility::DepthTexels::inside(self.map, x, y)
+    }
 }
 
 /// One lookup task of a face.
@@ -421,7 +436,7 @@ impl Kernel for RbsmLookup<'_> {
                 let mut tap = s.to_array_f(plain);
                 for lane in flagged.iter() {
                     let (v, work) = visibility::visibility(
-                        map,
+                        &CountedTexels { map, s },
                         xs[lane] + w,
                         ys[lane] + h,
                         zs[lane],

@@ -66,8 +66,43 @@ pub struct FaceMap {
 /// A light point's depth maps: one per face.
 #[derive(Clone, Debug)]
 pub struct LightMaps {
+    /// One per face of the light view; a face no receiver falls in has an empty `depth` (not
+    /// rendered; no lookup reads it).
     pub faces: Vec<FaceMap>,
     pub is_cube: bool,
+}
+
+crate::declare_stats! {
+    /// Counters of a frame's depth maps (every method of the shadow-map family).
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct MapStats {
+        /// Maps rendered.
+        pub faces: u64 => ("map.faces", "maps", "depth maps rendered (of 1 frustum or 6 cube faces)"),
+        /// Faces of the light view without a receiver: not rendered.
+        pub faces_skipped: u64 => ("map.faces_skipped", "maps", "light faces without a receiver: no map rendered"),
+        /// Map side.
+        pub size: u64 => ("map.size", "texels", "side of each depth map"),
+        /// Texels written.
+        pub texels_written: u64 => ("map.texels_written", "texels", "texels of all maps written"),
+        /// Texels that see a surface.
+        pub texels_covered: u64 => ("map.texels_covered", "texels", "texels that see a surface"),
+    }
+}
+
+impl LightMaps {
+    /// The maps' counters; `size` the side they were rendered at.
+    pub fn stats(&self, size: u32) -> MapStats {
+        let rendered = self.faces.iter().filter(|f| !f.depth.is_empty());
+        MapStats {
+            faces: rendered.clone().count() as u64,
+            faces_skipped: self.faces.iter().filter(|f| f.depth.is_empty()).count() as u64,
+            size: size as u64,
+            texels_written: rendered.clone().map(|f| f.depth.len() as u64).sum(),
+            texels_covered: rendered
+                .map(|f| f.depth.iter().filter(|d| d.is_finite()).count() as u64)
+                .sum(),
+        }
+    }
 }
 
 /// A map read.
@@ -143,8 +178,12 @@ pub fn render_maps(
     let mut extent = vec![0f32; n_faces];
     let mut z_lo = vec![f32::INFINITY; n_faces];
     let mut z_hi = vec![0f32; n_faces];
+    // A face is rendered if any receiver is assigned to it, even one behind this light point
+    // (its lookups still read the map).
+    let mut has_receiver = vec![false; n_faces];
     for s in &samples.samples {
         let f = s.face as usize;
+        has_receiver[f] = true;
         let q = samples.view.faces[f].to_face(s.q + samples.light.center - origin);
         if q.z <= 0.0 {
             continue;
@@ -182,6 +221,20 @@ pub fn render_maps(
                 // Occluders nearer than a ten-thousandth of the nearest receiver are inside the light.
                 z_near: z0 * 1e-4,
             };
+            if !has_receiver[f] {
+                // No receiver looks up this face (a cube face away from every receiver): no map.
+                phase.skip();
+                return FaceMap {
+                    face,
+                    origin,
+                    extent,
+                    size,
+                    z0,
+                    inv_range,
+                    depth: Vec::new(),
+                    z_min: f32::INFINITY,
+                };
+            }
             let mut depth: Vec<f32> = Vec::with_capacity(size as usize * size as usize);
             let resolve = DepthResolve {
                 z0,

@@ -36,14 +36,6 @@ crate::declare_stats! {
     /// Counters of a shadow-map frame.
     #[derive(Clone, Copy, Debug, Default, PartialEq)]
     pub struct ShadowMapStats {
-        /// Light faces (maps): 1 frustum or 6 cube faces.
-        pub faces: u64 => ("shadow_map.faces", "maps", "depth maps rendered (1 frustum or 6 cube faces)"),
-        /// Map side.
-        pub map_size: u64 => ("shadow_map.map_size", "texels", "side of each depth map"),
-        /// Texels written over all maps.
-        pub texels_written: u64 => ("shadow_map.texels_written", "texels", "texels of all maps written"),
-        /// Texels that see a surface.
-        pub texels_covered: u64 => ("shadow_map.texels_covered", "texels", "texels that see a surface"),
         /// Receivers looked up (facing the light).
         pub fragments: u64 => ("shadow_map.fragments", "fragments", "receivers tested against the maps"),
         /// Map reads.
@@ -221,16 +213,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         );
         counts
     });
-    let n = map_params.size as u64;
     let stats = ShadowMapStats {
-        faces: maps.faces.len() as u64,
-        map_size: n,
-        texels_written: maps.faces.len() as u64 * n * n,
-        texels_covered: maps
-            .faces
-            .iter()
-            .map(|f| f.depth.iter().filter(|d| d.is_finite()).count() as u64)
-            .sum(),
         fragments: counts.fragments,
         taps: counts.taps,
         taps_per_fragment: if counts.fragments == 0 {
@@ -242,7 +225,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         no_blocker: counts.no_blocker,
     };
     let mut out = StatsReport::default();
-    out.rows(&stats);
+    out.rows(&maps.stats(map_params.size)).rows(&stats);
     AlgorithmFrame {
         visibility,
         stats: out,
