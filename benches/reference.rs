@@ -27,7 +27,7 @@ fn bench_scene(c: &mut Criterion, name: &str, path: &Path, width: u32, height: u
         progress: false,
         ..Default::default()
     };
-    let (_, rays) = render_visibility(&scene, &bvh, None, &receivers, &options);
+    let rays = render_visibility(&scene, &bvh, None, &receivers, &options).1.rays;
     let mut group = c.benchmark_group("reference_shadow_rays");
     group.throughput(Throughput::Elements(rays));
     group.sample_size(10);

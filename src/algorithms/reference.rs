@@ -10,8 +10,10 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use rayon::prelude::*;
+use sism_simd::Mask16;
 
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::bvh::beam::{Beam, BEAM_RAYS};
 use crate::bvh::SceneBvh;
 use crate::exec::FrameLog;
 use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
@@ -78,7 +80,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, mode: Refe
     let bvh = prepared.bvh();
     let topology = (mode == ReferenceMode::AdditiveOverlap).then(|| prepared.topology());
     let t = Instant::now();
-    let (visibility, rays) = log.phase("shadow", "shadow rays", |_| {
+    let (visibility, counts) = log.phase("shadow", "shadow rays", |_| {
         render_visibility(prepared.scene, bvh, topology, inputs.receivers, &options)
     });
     let shadow_s = t.elapsed().as_secs_f64();
@@ -90,11 +92,11 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, mode: Refe
             "samples",
             "light-disk samples per receiver",
         )
-        .stat("rays.shadow", rays as f64, "rays", "shadow rays cast")
+        .rows(&counts)
         .stat(
             "rays.shadow_per_second",
             if shadow_s > 0.0 {
-                rays as f64 / shadow_s
+                counts.rays as f64 / shadow_s
             } else {
                 0.0
             },
@@ -187,9 +189,29 @@ pub fn ray_offset(bvh: &SceneBvh, p: Vec3) -> f32 {
     2e-5 * (bvh.scene_diagonal + p.abs().max_element())
 }
 
-/// Estimates `V` at receiver `r` with `strata.count()` disk samples drawn from `rng`. Returns the
-/// estimate and the number of shadow rays cast. A receiver facing away returns [`V_FACING_AWAY`].
+/// Estimates `V` at receiver `r` with `strata.count()` disk samples drawn from `rng`, its shadow rays
+/// traced as beams ([`crate::bvh::beam`]). Returns the estimate and the number of shadow rays cast. A
+/// receiver facing away returns [`V_FACING_AWAY`]. The same value, bit for bit, as
+/// [`receiver_visibility_rays`].
 pub fn receiver_visibility(
+    bvh: &SceneBvh,
+    light: &Light,
+    r: &Receiver,
+    strata: &Strata,
+    rng: &mut Rng,
+) -> (f32, u32) {
+    sism_simd::run_native(ReceiverBeams {
+        bvh,
+        light,
+        receiver: r,
+        strata,
+        rng,
+    })
+}
+
+/// [`receiver_visibility`] with one ray at a time through the CWBVH (the general tracer): the
+/// yardstick the beams are checked and benchmarked against.
+pub fn receiver_visibility_rays(
     bvh: &SceneBvh,
     light: &Light,
     r: &Receiver,
@@ -199,6 +221,182 @@ pub fn receiver_visibility(
     disk_visibility(bvh, light, r, strata, rng, |origin, dir, len| {
         bvh.occluded(origin, dir, len) as u32
     })
+}
+
+/// One receiver's shadow rays as beams (a kernel so the lanes run on the host's best backend).
+struct ReceiverBeams<'a> {
+    bvh: &'a SceneBvh,
+    light: &'a Light,
+    receiver: &'a Receiver,
+    strata: &'a Strata,
+    rng: &'a mut Rng,
+}
+
+impl sism_simd::Kernel for ReceiverBeams<'_> {
+    type Output = (f32, u32);
+    #[inline(always)]
+    fn run<S: sism_simd::Simd>(self, s: S) -> (f32, u32) {
+        let mut scratch = BeamScratch::new();
+        beam_visibility(
+            s,
+            self.bvh,
+            self.light,
+            self.receiver,
+            self.strata,
+            self.rng,
+            &mut scratch,
+        )
+    }
+}
+
+/// One image row's receivers, their shadow rays as beams (the exact mode's render loop): one kernel
+/// dispatch and one set of buffers a row.
+struct RowBeams<'a> {
+    bvh: &'a SceneBvh,
+    light: &'a Light,
+    row: &'a [Option<Receiver>],
+    out: &'a mut [f32],
+    strata: &'a Strata,
+    seed: u64,
+    /// Pixel index of the row's first pixel (keys each pixel's random stream).
+    first_pixel: usize,
+}
+
+impl sism_simd::Kernel for RowBeams<'_> {
+    type Output = ShadowRayCounts;
+    #[inline(always)]
+    fn run<S: sism_simd::Simd>(self, s: S) -> ShadowRayCounts {
+        let mut scratch = BeamScratch::new();
+        let mut rays = 0u64;
+        for (i, (v, r)) in self.out.iter_mut().zip(self.row).enumerate() {
+            if let Some(r) = r {
+                let mut rng = Rng::new(self.seed, (self.first_pixel + i) as u64);
+                let (value, n) =
+                    beam_visibility(s, self.bvh, self.light, r, self.strata, &mut rng, &mut scratch);
+                *v = value;
+                rays += n as u64;
+            }
+        }
+        ShadowRayCounts {
+            rays,
+            ..scratch.counts
+        }
+    }
+}
+
+crate::declare_stats! {
+    /// What a frame's shadow rays did.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct ShadowRayCounts {
+        /// Shadow rays cast.
+        pub rays: u64 => ("rays.shadow", "rays", "shadow rays cast"),
+        /// Beams traced (exact mode: up to 256 rays of one receiver each).
+        pub beams: u64 => ("rays.beams", "beams", "beams of one receiver's shadow rays traced together"),
+        /// BVH nodes a beam's cone was tested against, summed over beams.
+        pub beam_nodes: u64 => ("rays.beam_nodes", "nodes", "BVH nodes tested against a beam's cone"),
+        /// Triangle tests, in 16-lane vectors.
+        pub triangle_vectors: u64 => ("rays.triangle_vectors", "vectors", "triangle tests of 16 rays each"),
+        /// Box tests of wide beams, in 16-lane vectors.
+        pub box_vectors: u64 => ("rays.box_vectors", "vectors", "box tests of 16 rays each (wide beams: a large or near light)"),
+    }
+}
+
+impl ShadowRayCounts {
+    fn add(mut self, o: ShadowRayCounts) -> ShadowRayCounts {
+        self.rays += o.rays;
+        self.beams += o.beams;
+        self.beam_nodes += o.beam_nodes;
+        self.triangle_vectors += o.triangle_vectors;
+        self.box_vectors += o.box_vectors;
+        self
+    }
+}
+
+/// Reused buffers of [`beam_visibility`].
+struct BeamScratch {
+    beam: Beam,
+    stack: Vec<(u32, u16)>,
+    /// Per sample of the current beam: its weight and its ray's index in the beam (`u16::MAX`: no
+    /// ray, the sample is below the receiver's tangent plane and counts as occluded).
+    samples: Vec<(f32, u16)>,
+    /// Beam walk counters, summed.
+    counts: ShadowRayCounts,
+}
+
+impl BeamScratch {
+    fn new() -> BeamScratch {
+        BeamScratch {
+            beam: Beam::new(Vec3::ZERO),
+            stack: Vec::new(),
+            samples: Vec::with_capacity(BEAM_RAYS),
+            counts: ShadowRayCounts::default(),
+        }
+    }
+}
+
+/// [`disk_visibility`] of the exact mode with the rays traced [`BEAM_RAYS`] at a time: the samples are
+/// drawn, and their weights summed, in the same order, so the result is the same bit for bit.
+#[inline(always)]
+fn beam_visibility<S: sism_simd::Simd>(
+    s: S,
+    bvh: &SceneBvh,
+    light: &Light,
+    r: &Receiver,
+    strata: &Strata,
+    rng: &mut Rng,
+    scratch: &mut BeamScratch,
+) -> (f32, u32) {
+    let c = light.center();
+    let to_light = c - r.position;
+    if r.normal.dot(to_light) <= 0.0 {
+        return (V_FACING_AWAY, 0);
+    }
+    let origin = r.position + r.normal * ray_offset(bvh, r.position);
+    let (t, b) = orthonormal_basis(to_light.normalize());
+    let point_light = light.radius == 0.0;
+    let count = if point_light { 1 } else { strata.count() };
+    let mut occluded = 0.0f32;
+    let mut hits = [Mask16::NONE; BEAM_RAYS / 16];
+    let mut k = 0;
+    while k < count {
+        let end = (k + BEAM_RAYS as u32).min(count);
+        scratch.beam.reset(origin);
+        scratch.samples.clear();
+        for _ in k..end {
+            let (target, weight) = if point_light {
+                (c, 1.0)
+            } else {
+                let (u, weight) = strata.sample(scratch.samples.len() as u32 + k, rng);
+                let q = concentric_disk(u) * light.radius;
+                (c + t * q.x + b * q.y, weight)
+            };
+            let d = target - origin;
+            let len = d.length();
+            let ray = if len > 0.0 && d.dot(r.normal) > 0.0 {
+                scratch.beam.push(d / len, len);
+                (scratch.beam.len() - 1) as u16
+            } else {
+                u16::MAX
+            };
+            scratch.samples.push((weight, ray));
+        }
+        let walk = bvh
+            .beams()
+            .occluded(s, &scratch.beam, &mut scratch.stack, &mut hits);
+        scratch.counts.beams += 1;
+        scratch.counts.beam_nodes += walk.nodes;
+        scratch.counts.triangle_vectors += walk.triangle_vectors;
+        scratch.counts.box_vectors += walk.box_vectors;
+        for &(weight, ray) in &scratch.samples {
+            let occ = ray == u16::MAX || hits[ray as usize / 16].test(ray as usize % 16);
+            if point_light {
+                return (1.0 - occ as u32 as f32, 1);
+            }
+            occluded += weight * occ as u32 as f32;
+        }
+        k = end;
+    }
+    (1.0 - occluded.clamp(0.0, 1.0), strata.count())
 }
 
 /// [`ReferenceMode::AdditiveOverlap`] at receiver `r`: occluder crossings of the triangles that SISM
@@ -256,14 +454,14 @@ fn disk_visibility(
 }
 
 /// Renders reference visibility for every pixel of `receivers`; `topology` is needed (and used) by
-/// [`ReferenceMode::AdditiveOverlap`] only. Returns the image and the shadow rays cast.
+/// [`ReferenceMode::AdditiveOverlap`] only. Returns the image and what its shadow rays did.
 pub fn render_visibility(
     scene: &Scene,
     bvh: &SceneBvh,
     topology: Option<&SceneTopology>,
     receivers: &Receivers,
     options: &ReferenceOptions,
-) -> (VisibilityImage, u64) {
+) -> (VisibilityImage, ShadowRayCounts) {
     let strata = Strata::new(options.spp);
     let width = receivers.width as usize;
     let mut image = VisibilityImage::filled(receivers.width, receivers.height, V_MISS);
@@ -277,32 +475,45 @@ pub fn render_visibility(
             Some(&built)
         }
     };
-    let rays: u64 = image
+    let counts = image
         .values
         .par_chunks_mut(width)
         .zip(receivers.pixels.par_chunks(width))
         .enumerate()
         .map(|(j, (out, row))| {
-            let mut rays = 0u64;
-            for (i, (v, r)) in out.iter_mut().zip(row).enumerate() {
-                if let Some(r) = r {
-                    let mut rng = Rng::new(options.seed, (j * width + i) as u64);
-                    let (value, n) = match topology {
-                        None => receiver_visibility(bvh, &scene.light, r, &strata, &mut rng),
-                        Some(topo) => {
-                            receiver_visibility_additive(bvh, topo, &scene.light, r, &strata, &mut rng)
+            let rays = match topology {
+                None => sism_simd::run_native(RowBeams {
+                    bvh,
+                    light: &scene.light,
+                    row,
+                    out,
+                    strata: &strata,
+                    seed: options.seed,
+                    first_pixel: j * width,
+                }),
+                Some(topo) => {
+                    let mut rays = 0u64;
+                    for (i, (v, r)) in out.iter_mut().zip(row).enumerate() {
+                        if let Some(r) = r {
+                            let mut rng = Rng::new(options.seed, (j * width + i) as u64);
+                            let (value, n) =
+                                receiver_visibility_additive(bvh, topo, &scene.light, r, &strata, &mut rng);
+                            *v = value;
+                            rays += n as u64;
                         }
-                    };
-                    *v = value;
-                    rays += n as u64;
+                    }
+                    ShadowRayCounts {
+                        rays,
+                        ..Default::default()
+                    }
                 }
-            }
+            };
             bar.inc(1);
             rays
         })
-        .sum();
+        .reduce(ShadowRayCounts::default, ShadowRayCounts::add);
     bar.finish_and_clear();
-    (image, rays)
+    (image, counts)
 }
 
 /// The whole reference render outside the registry (for tests and tools): primary rays, then shadow
@@ -316,7 +527,8 @@ pub fn render(
     let receivers = cast_primary_rays(scene, bvh);
     let time_primary = t0.elapsed();
     let t1 = Instant::now();
-    let (image, shadow_rays) = render_visibility(scene, bvh, None, &receivers, options);
+    let (image, counts) = render_visibility(scene, bvh, None, &receivers, options);
+    let shadow_rays = counts.rays;
     let time_shadow = t1.elapsed();
     let stats = ReferenceStats {
         primary_rays: receivers.pixels.len() as u64,

@@ -1,6 +1,7 @@
 //! sism's integration tests: one binary, a module per feature (ripgrep's layout, so the crate links once).
 
 mod bad_input;
+mod beams;
 mod closed_forms;
 mod convergence;
 mod golden;

@@ -1,10 +1,14 @@
 //! Ray queries against the whole scene through obvhs' compressed wide BVH (CWBVH, Ylitie et al. 2017):
-//! closest hit for primary rays, any hit with early out for shadow rays.
+//! closest hit for primary rays, any hit with early out for shadow rays; and, over the same binary
+//! BVH before its collapse, beams of one receiver's shadow rays ([`beam`]).
 
-use std::time::Duration;
+pub mod beam;
 
 use glam::{UVec2, Vec3, Vec3A};
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::CwBvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::ray::Ray;
 use obvhs::rt_triangle::RtTriangle;
 use obvhs::triangle::Triangle;
@@ -15,6 +19,8 @@ use crate::scene::Scene;
 /// The scene's triangles in BVH leaf order, with the BVH over them.
 pub struct SceneBvh {
     bvh: CwBvh,
+    /// The binary BVH the CWBVH was collapsed from, laid out for beams of shadow rays.
+    beam: beam::BeamBvh,
     /// Triangles reordered so `triangles[i]` is the BVH's primitive `i` (no indirection in the hot loop).
     triangles: Vec<RtTriangle>,
     /// `original[i]` is primitive `i`'s index in [`Scene::triangles`] order.
@@ -37,7 +43,8 @@ pub struct Hit {
 }
 
 impl SceneBvh {
-    /// Builds the BVH (obvhs' medium preset: PLOC with reinsertion, then CWBVH collapse).
+    /// Builds the BVH (obvhs' medium preset: PLOC with reinsertion, then CWBVH collapse; the steps of
+    /// `obvhs::cwbvh::builder::build_cwbvh_from_tris`, kept apart so the binary BVH serves the beams).
     pub fn build(scene: &Scene) -> SceneBvh {
         let tris: Vec<Triangle> = scene
             .triangles()
@@ -47,16 +54,20 @@ impl SceneBvh {
                 v2: c.into(),
             })
             .collect();
-        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+        let config = BvhBuildParams::medium_build();
+        let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
+            config.ploc_search_distance,
             &tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
+            (0..tris.len() as u32).collect::<Vec<_>>(),
+            config.sort_precision,
+            config.search_depth_threshold,
         );
+        ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+        let bvh = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false);
+        let rt: Vec<RtTriangle> = tris.iter().map(RtTriangle::from).collect();
+        let beam = beam::BeamBvh::new(&bvh2, &rt);
         let original = bvh.primitive_indices.clone();
-        let triangles = original
-            .iter()
-            .map(|&i| RtTriangle::from(&tris[i as usize]))
-            .collect();
+        let triangles = original.iter().map(|&i| rt[i as usize]).collect();
         let normals = original
             .iter()
             .map(|&i| Vec3::from(tris[i as usize].compute_normal()))
@@ -64,6 +75,7 @@ impl SceneBvh {
         let (lo, hi) = scene.bounds();
         SceneBvh {
             bvh,
+            beam,
             triangles,
             original,
             normals,
@@ -124,6 +136,11 @@ impl SceneBvh {
             }
         });
         n
+    }
+
+    /// The beam layout of the BVH, for [`beam::Beam`]s of shadow rays.
+    pub fn beams(&self) -> &beam::BeamBvh {
+        &self.beam
     }
 
     /// Number of triangles in the BVH.
