@@ -257,6 +257,10 @@ impl BeamBvh {
         while let Some((n, mut reach)) = stack.pop() {
             let node = &self.nodes[n as usize];
             counts.nodes += 1;
+            // The walk's scalar part, for the machine model (free natively): the node's line and the
+            // cone test's arithmetic.
+            s.scalar_read(std::slice::from_ref(node));
+            s.scalar_ops(20);
             // Sphere against cone: outside when past either end of the segments or farther than its
             // radius from the plane through the cone's nearest generating line (which bounds the cone).
             let v = node.center - o;
@@ -325,7 +329,10 @@ impl BeamBvh {
                 }
                 continue;
             }
-            for tri in &self.triangles[node.first as usize..(node.first + node.count) as usize] {
+            let leaf = &self.triangles[node.first as usize..(node.first + node.count) as usize];
+            s.scalar_read(leaf);
+            for tri in leaf {
+                s.scalar_ops(12);
                 // obvhs' RtTriangle::intersect, lane-wise, the same operations in the same order.
                 let c = Vec3::from(tri.v0) - o;
                 let (e1, e2, ng) = (Vec3::from(tri.e1), Vec3::from(tri.e2), Vec3::from(tri.ng));

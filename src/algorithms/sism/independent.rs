@@ -50,7 +50,7 @@ pub fn visible_fraction(
     );
     for (c, _) in &counters {
         umbra.samples_tested += c[0];
-        penumbra.add_bin([c[1], c[2], c[3]]);
+        penumbra.add_bin([c[1], c[2], c[3], 0]);
     }
     penumbra.set_quads_per_sample(counters.iter().map(|c| &c.1));
     penumbra.tasks += counters.len() as u64;

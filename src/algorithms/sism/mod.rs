@@ -20,6 +20,7 @@ pub mod umbra;
 use glam::Vec3;
 
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::bvh::SceneBvh;
 use crate::exec::{Exec, FrameLog};
 use crate::frame::{Receivers, VisibilityImage};
 use crate::scene::topology::SceneTopology;
@@ -51,6 +52,13 @@ pub struct SismOptions {
     pub composition: Composition,
     /// Estimator of the light-point composition (`Composition::Sampled` only).
     pub light_point_estimator: sampled::LightPointEstimator,
+    /// `Composition::Sampled` with a BVH given: estimated Eq. 3 evaluations per sample at or above
+    /// which a bin's samples cast rays to their light points instead ([`sampled::RayFallback`]); 0:
+    /// never.
+    pub ray_evaluations: u32,
+    /// Triangles of the scene's BVH if it is not built yet (0 when it is): see
+    /// [`sampled::RayFallback::unbuilt_triangles`].
+    pub unbuilt_bvh_triangles: usize,
 }
 
 /// The light as SISM's stages see it: a sphere of `radius` at `center`, and per light face the width
@@ -129,11 +137,14 @@ pub struct SismFrame {
 
 /// Renders the visibility of `receivers` with SISM: the stages as phases of `log`, in the paper's
 /// order. `topo` is the scene's topology (built once per scene).
-pub fn render_frame(
+/// `bvh` gives the scene's BVH (built once per scene, and only when asked): with it the light-point
+/// composition casts rays where they are cheaper than Eq. 3 (see [`SismOptions::ray_evaluations`]).
+pub fn render_frame<'a>(
     log: &mut FrameLog,
     topo: &SceneTopology,
+    bvh: Option<&'a (dyn Fn() -> &'a SceneBvh + Sync)>,
     light: &Light,
-    receivers: &Receivers,
+    receivers: &'a Receivers,
     options: &SismOptions,
 ) -> SismFrame {
     let mut stats = SismStats::default();
@@ -209,6 +220,13 @@ pub fn render_frame(
                     &occluders,
                     depth.as_deref().expect("computed above"),
                     options.light_point_estimator,
+                    bvh.filter(|_| options.ray_evaluations > 0)
+                        .map(|bvh| sampled::RayFallback {
+                            bvh,
+                            receivers,
+                            unbuilt_triangles: options.unbuilt_bvh_triangles,
+                            min_evaluations: options.ray_evaluations,
+                        }),
                     &mut stats.penumbra,
                 )),
                 Composition::Independent => resolve::Occlusion::Visible(independent::visible_fraction(
@@ -247,7 +265,7 @@ pub fn render_scene(scene: &Scene, topo: &SceneTopology, options: &SismOptions, 
     let eye = log.phase("eye_pass", "eye pass: receivers of every pixel", |p| {
         crate::raster::eye::eye_pass(p, scene)
     });
-    let frame = render_frame(&mut log, topo, &scene.light, &eye.receivers, options);
+    let frame = render_frame(&mut log, topo, None, &scene.light, &eye.receivers, options);
     SceneFrame {
         receivers: eye.receivers,
         visibility: frame.visibility,
@@ -280,7 +298,7 @@ const GRID_PARAMS: [ParamSpec; 3] = [
 ];
 
 /// The light-point composition's parameters: the grid's and the estimator.
-const SAMPLED_PARAMS: [ParamSpec; 4] = [
+const SAMPLED_PARAMS: [ParamSpec; 5] = [
     GRID_PARAMS[0],
     GRID_PARAMS[1],
     GRID_PARAMS[2],
@@ -291,7 +309,19 @@ const SAMPLED_PARAMS: [ParamSpec; 4] = [
         description: "hybrid: Eq. 4's analytic value where no light point sees an overlap, the lit share \
 elsewhere; fraction: the lit share everywhere",
     },
+    ParamSpec {
+        key: "ray_evaluations",
+        kind: ParamKind::Int { min: 0, max: 1 << 24 },
+        default: RAY_EVALUATIONS_DEFAULT,
+        description:
+            "quads of a bin at or above which its samples cast shadow rays to their 64 light points \
+instead of evaluating Eq. 3 (cost-aware penumbra); 0: never",
+    },
 ];
+
+/// Default of `ray_evaluations`: about where a sample's Eq. 3 light-point work costs as much as its 64
+/// shadow rays in the bins that reach it (see ARCHITECTURE.md, "The cost-aware penumbra").
+const RAY_EVALUATIONS_DEFAULT: &str = "2048";
 
 /// `sism`: the paper's additive composition.
 pub static SISM: super::Algorithm = super::Algorithm {
@@ -349,6 +379,11 @@ impl SismOptions {
                 }
                 _ => sampled::LightPointEstimator::Hybrid,
             },
+            ray_evaluations: match composition {
+                Composition::Sampled => params.int("ray_evaluations") as u32,
+                _ => 0,
+            },
+            unbuilt_bvh_triangles: 0,
         }
     }
 }
@@ -360,11 +395,20 @@ fn run(
     log: &mut FrameLog,
     composition: Composition,
 ) -> AlgorithmFrame {
-    let options = SismOptions::from_params(params, composition);
     let prepared = inputs.prepared;
+    let options = SismOptions {
+        unbuilt_bvh_triangles: if prepared.bvh_time().is_some() {
+            0
+        } else {
+            prepared.scene.triangle_count()
+        },
+        ..SismOptions::from_params(params, composition)
+    };
+    let bvh = || prepared.bvh();
     let frame = render_frame(
         log,
         prepared.topology(),
+        Some(&bvh),
         &prepared.scene.light,
         inputs.receivers,
         &options,

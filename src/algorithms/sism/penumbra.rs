@@ -46,6 +46,10 @@ crate::declare_stats! {
         pub rows_culled_by_wedge: u64 => ("penumbra.rows_culled_by_wedge", "rows", "rows of columns under a quad the wedge misses"),
         /// Samples under a quad skipped by the wedge's entry depth or the per-sample wedge test.
         pub samples_culled_by_wedge: u64 => ("penumbra.samples_culled_by_wedge", "samples", "samples under a quad outside its wedge (by row depth or per sample)"),
+        /// Bin parts that cast rays to their light points instead of evaluating Eq. 3 (`sism-sampled`).
+        pub ray_parts: u64 => ("penumbra.ray_parts", "parts", "bin parts that cast rays to their light points instead of Eq. 3 (cost-aware penumbra)"),
+        /// Samples of those parts.
+        pub ray_samples: u64 => ("penumbra.ray_samples", "samples", "samples whose light points were ray-cast"),
         /// Sample-edge evaluations of Eq. 3 (active lanes).
         pub samples_evaluated: u64 => ("penumbra.samples_evaluated", "evaluations", "Eq. 3 evaluations (active lanes)"),
         /// `samples_evaluated` per grid sample (mean; see [`PenumbraStats::finish`]).
@@ -62,11 +66,14 @@ crate::declare_stats! {
 }
 
 impl PenumbraStats {
-    /// Adds the counters a bin task returned: `[rows culled, samples culled, samples evaluated]`.
-    pub fn add_bin(&mut self, c: [u64; 3]) {
+    /// Adds the counters a bin task returned: `[rows culled, samples culled, samples evaluated,
+    /// samples that cast rays instead]`.
+    pub fn add_bin(&mut self, c: [u64; 4]) {
         self.rows_culled_by_wedge += c[0];
         self.samples_culled_by_wedge += c[1];
         self.samples_evaluated += c[2];
+        self.ray_samples += c[3];
+        self.ray_parts += u64::from(c[3] > 0);
     }
 
     /// The distribution of quads per sample from every bin's per-sample counts (bin-local order;
@@ -302,7 +309,7 @@ pub fn run_parts<'a, T, K, F>(
     task: F,
 ) where
     T: Send,
-    K: Kernel<Output = ([u64; 3], Vec<u32>)> + Send,
+    K: Kernel<Output = ([u64; 4], Vec<u32>)> + Send,
     F: Fn(&'a BinPart, &'a mut [T]) -> K + Sync,
 {
     let counters = phase.run_par(
@@ -558,9 +565,9 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
 
 impl Kernel for PenumbraBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
-    type Output = ([u64; 3], Vec<u32>);
+    type Output = ([u64; 4], Vec<u32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> ([u64; 3], Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
         s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
         let mut reached = vec![0u32; positions.0.len()];
@@ -581,7 +588,7 @@ impl Kernel for PenumbraBin<'_> {
             evaluated += n as u64;
         }
         s.end_task();
-        ([culled[0], culled[1], evaluated], reached)
+        ([culled[0], culled[1], evaluated, 0], reached)
     }
 }
 
