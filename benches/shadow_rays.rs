@@ -16,11 +16,10 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
-use sism::algorithms::reference::{cast_primary_rays, ray_offset};
+use sism::algorithms::reference::{cast_primary_rays, DiskRays};
 use sism::bvh::beam::{Beam, BEAM_RAYS};
 use sism::bvh::SceneBvh;
-use sism::sampling::{concentric_disk, Rng, Strata};
-use sism::scene::shapes::orthonormal_basis;
+use sism::sampling::{Rng, Strata};
 use sism::scene::Scene;
 use sism_simd::{Kernel, Mask16, Simd};
 
@@ -40,28 +39,20 @@ fn shadow_rays(scene: &Scene, bvh: &SceneBvh) -> Vec<Receiver> {
     let receivers = cast_primary_rays(scene, bvh);
     let strata = Strata::new(SPP);
     let light = &scene.light;
-    let c = light.center();
     let mut out = Vec::new();
     for (i, r) in receivers.pixels.iter().enumerate() {
         let Some(r) = r else { continue };
-        let to_light = c - r.position;
-        if r.normal.dot(to_light) <= 0.0 {
+        let Some(disk) = DiskRays::new(bvh, light.center(), light.radius, r) else {
             continue;
-        }
-        let origin = r.position + r.normal * ray_offset(bvh, r.position);
-        let (t, b) = orthonormal_basis(to_light.normalize());
+        };
         let mut rng = Rng::new(0, i as u64);
-        let mut rays = Vec::with_capacity(SPP as usize);
-        for k in 0..strata.count() {
-            let (u, _) = strata.sample(k, &mut rng);
-            let q = concentric_disk(u) * light.radius;
-            let d = c + t * q.x + b * q.y - origin;
-            let len = d.length();
-            if len > 0.0 && d.dot(r.normal) > 0.0 {
-                rays.push((d / len, len));
-            }
-        }
-        out.push(Receiver { origin, rays });
+        let rays = (0..strata.count())
+            .filter_map(|k| disk.ray(disk.sample(k, &strata, &mut rng).0))
+            .collect();
+        out.push(Receiver {
+            origin: disk.origin,
+            rays,
+        });
     }
     out
 }

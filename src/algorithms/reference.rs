@@ -189,6 +189,65 @@ pub fn ray_offset(bvh: &SceneBvh, p: Vec3) -> f32 {
     2e-5 * (bvh.scene_diagonal + p.abs().max_element())
 }
 
+/// One receiver's shadow rays to a light disk: the offset origin, and the disk's basis
+/// perpendicular to the direction to its centre. Every tracer of the reference (and of SISM's
+/// light points) casts the same rays through it.
+#[derive(Clone, Copy, Debug)]
+pub struct DiskRays {
+    /// Ray origin: the receiver, offset along its normal by [`ray_offset`].
+    pub origin: Vec3,
+    normal: Vec3,
+    center: Vec3,
+    radius: f32,
+    /// Unit axes of the disk's plane.
+    t: Vec3,
+    b: Vec3,
+}
+
+impl DiskRays {
+    /// The rays of receiver `r` to the disk of `radius` around `center` (world units); `None` when
+    /// the receiver faces away from the centre.
+    #[inline]
+    pub fn new(bvh: &SceneBvh, center: Vec3, radius: f32, r: &Receiver) -> Option<DiskRays> {
+        let to_light = center - r.position;
+        if r.normal.dot(to_light) <= 0.0 {
+            return None;
+        }
+        let (t, b) = orthonormal_basis(to_light.normalize());
+        Some(DiskRays {
+            origin: r.position + r.normal * ray_offset(bvh, r.position),
+            normal: r.normal,
+            center,
+            radius,
+            t,
+            b,
+        })
+    }
+
+    /// The point of the disk at offset `q` (in radii, in the disk's basis), world units.
+    #[inline]
+    pub fn point(&self, q: glam::Vec2) -> Vec3 {
+        let q = q * self.radius;
+        self.center + self.t * q.x + self.b * q.y
+    }
+
+    /// Stratified sample `k` of the disk and its weight.
+    #[inline]
+    pub fn sample(&self, k: u32, strata: &Strata, rng: &mut Rng) -> (Vec3, f32) {
+        let (u, weight) = strata.sample(k, rng);
+        (self.point(concentric_disk(u)), weight)
+    }
+
+    /// The ray to `target`: unit direction and segment length; `None` when the target is below the
+    /// receiver's tangent plane (hidden by the receiver's own surface) or at the origin.
+    #[inline]
+    pub fn ray(&self, target: Vec3) -> Option<(Vec3, f32)> {
+        let d = target - self.origin;
+        let len = d.length();
+        (len > 0.0 && d.dot(self.normal) > 0.0).then(|| (d / len, len))
+    }
+}
+
 /// Estimates `V` at receiver `r` with `strata.count()` disk samples drawn from `rng`, its shadow rays
 /// traced as beams ([`crate::bvh::beam`]). Returns the estimate and the number of shadow rays cast. A
 /// receiver facing away returns [`V_FACING_AWAY`]. The same value, bit for bit, as
@@ -347,12 +406,9 @@ fn beam_visibility<S: sism_simd::Simd>(
     scratch: &mut BeamScratch,
 ) -> (f32, u32) {
     let c = light.center();
-    let to_light = c - r.position;
-    if r.normal.dot(to_light) <= 0.0 {
+    let Some(rays) = DiskRays::new(bvh, c, light.radius, r) else {
         return (V_FACING_AWAY, 0);
-    }
-    let origin = r.position + r.normal * ray_offset(bvh, r.position);
-    let (t, b) = orthonormal_basis(to_light.normalize());
+    };
     let point_light = light.radius == 0.0;
     let count = if point_light { 1 } else { strata.count() };
     let mut occluded = 0.0f32;
@@ -360,23 +416,20 @@ fn beam_visibility<S: sism_simd::Simd>(
     let mut k = 0;
     while k < count {
         let end = (k + BEAM_RAYS as u32).min(count);
-        scratch.beam.reset(origin);
+        scratch.beam.reset(rays.origin);
         scratch.samples.clear();
-        for _ in k..end {
+        for i in k..end {
             let (target, weight) = if point_light {
                 (c, 1.0)
             } else {
-                let (u, weight) = strata.sample(scratch.samples.len() as u32 + k, rng);
-                let q = concentric_disk(u) * light.radius;
-                (c + t * q.x + b * q.y, weight)
+                rays.sample(i, strata, rng)
             };
-            let d = target - origin;
-            let len = d.length();
-            let ray = if len > 0.0 && d.dot(r.normal) > 0.0 {
-                scratch.beam.push(d / len, len);
-                (scratch.beam.len() - 1) as u16
-            } else {
-                u16::MAX
+            let ray = match rays.ray(target) {
+                Some((dir, len)) => {
+                    scratch.beam.push(dir, len);
+                    (scratch.beam.len() - 1) as u16
+                }
+                None => u16::MAX,
             };
             scratch.samples.push((weight, ray));
         }
@@ -426,29 +479,20 @@ fn disk_visibility(
     occlusion: impl Fn(Vec3, Vec3, f32) -> u32,
 ) -> (f32, u32) {
     let c = light.center();
-    let to_light = c - r.position;
-    if r.normal.dot(to_light) <= 0.0 {
+    let Some(rays) = DiskRays::new(bvh, c, light.radius, r) else {
         return (V_FACING_AWAY, 0);
-    }
-    let origin = r.position + r.normal * ray_offset(bvh, r.position);
-    let occluders = |target: Vec3| {
-        let d = target - origin;
-        let len = d.length();
-        if len > 0.0 && d.dot(r.normal) > 0.0 {
-            occlusion(origin, d / len, len)
-        } else {
-            1
-        }
+    };
+    let occluders = |target: Vec3| match rays.ray(target) {
+        Some((dir, len)) => occlusion(rays.origin, dir, len),
+        None => 1,
     };
     if light.radius == 0.0 {
         return ((1.0 - occluders(c).min(1) as f32), 1);
     }
-    let (t, b) = orthonormal_basis(to_light.normalize());
     let mut occluded = 0.0f32;
     for k in 0..strata.count() {
-        let (u, weight) = strata.sample(k, rng);
-        let q = concentric_disk(u) * light.radius;
-        occluded += weight * occluders(c + t * q.x + b * q.y) as f32;
+        let (target, weight) = rays.sample(k, strata, rng);
+        occluded += weight * occluders(target) as f32;
     }
     (1.0 - occluded.clamp(0.0, 1.0), strata.count())
 }

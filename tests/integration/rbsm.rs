@@ -9,7 +9,7 @@ use std::path::Path;
 use glam::Vec3;
 use sism::exec::Exec;
 use sism::metrics::compare;
-use sism::render::{render, RenderOptions, RenderResult};
+use sism::render::RenderResult;
 use sism::scene::Scene;
 
 const FAMILY: [&str; 7] = [
@@ -23,20 +23,7 @@ const FAMILY: [&str; 7] = [
 ];
 
 fn run(scene: &Scene, algorithm: &str, given: &[(&str, &str)]) -> RenderResult {
-    let algo = sism::algorithms::find(algorithm).unwrap();
-    let given: Vec<(String, String)> = given
-        .iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect();
-    render(
-        scene,
-        algo,
-        &algo.params(&given).unwrap(),
-        &RenderOptions {
-            exec: Exec::Native,
-            progress: false,
-        },
-    )
+    crate::util::render_with(scene, algorithm, given, Exec::Native)
 }
 
 /// The closed box `[-2, 2] × [0, 2] × [-2, 2]` (six quads), the camera inside it, a point light

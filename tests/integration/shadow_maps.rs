@@ -6,33 +6,16 @@ use std::path::Path;
 use sism::exec::Exec;
 use sism::frame::VisibilityImage;
 use sism::metrics::{compare, ErrorReport};
-use sism::render::{render, RenderOptions, RenderResult};
+use sism::render::RenderResult;
 use sism::scene::Scene;
 
-use crate::util::{assert_clean_failure, sism};
+use crate::util::{assert_clean_failure, render_with as run, sism};
 
 fn load(name: &str, width: u32, height: u32) -> Scene {
     let mut s = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)).unwrap();
     s.camera.width = width;
     s.camera.height = height;
     s
-}
-
-fn run(scene: &Scene, algorithm: &str, given: &[(&str, &str)], exec: Exec) -> RenderResult {
-    let algo = sism::algorithms::find(algorithm).unwrap();
-    let given: Vec<(String, String)> = given
-        .iter()
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect();
-    render(
-        scene,
-        algo,
-        &algo.params(&given).unwrap(),
-        &RenderOptions {
-            exec,
-            progress: false,
-        },
-    )
 }
 
 fn reference(scene: &Scene, spp: &str) -> VisibilityImage {

@@ -318,22 +318,12 @@ fn light_point_counts_equal_ray_casts_to_the_same_points() {
 #[test]
 fn bins_that_cast_rays_give_the_light_points_answer() {
     let scene = overlapping_plates();
-    let algo = sism::algorithms::find("sism-sampled").unwrap();
-    let params = algo
-        .params(&[
-            ("ray_evaluations".to_string(), "1".to_string()),
-            ("estimator".to_string(), "fraction".to_string()),
-        ])
-        .unwrap();
     let run = |exec| {
-        sism::render::render(
+        crate::util::render_with(
             &scene,
-            algo,
-            &params,
-            &sism::render::RenderOptions {
-                exec,
-                progress: false,
-            },
+            "sism-sampled",
+            &[("ray_evaluations", "1"), ("estimator", "fraction")],
+            exec,
         )
     };
     let native = run(Exec::Native);

@@ -56,3 +56,27 @@ radius = 0.3
 
 /// A unit triangle OBJ.
 pub const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// Renders `scene` with the registered `algorithm` and the `given` parameters (checked; the rest at
+/// their defaults), executed as `exec`.
+pub fn render_with(
+    scene: &sism::scene::Scene,
+    algorithm: &str,
+    given: &[(&str, &str)],
+    exec: sism::exec::Exec,
+) -> sism::render::RenderResult {
+    let algo = sism::algorithms::find(algorithm).unwrap();
+    let given: Vec<(String, String)> = given
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    sism::render::render(
+        scene,
+        algo,
+        &algo.params(&given).unwrap(),
+        &sism::render::RenderOptions {
+            exec,
+            progress: false,
+        },
+    )
+}

@@ -14,11 +14,10 @@ pub mod visibility;
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, Simd};
 
-use super::shadow_map::depth_map::{self, FaceMap, LightMaps};
-use super::shadow_map::{map_params, LOOKUP_CHUNK};
+use super::shadow_map::depth_map::{FaceMap, LightMaps};
+use super::shadow_map::{face_tasks, map_frame};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::algorithms::sism::grid::SampleIn;
-use crate::algorithms::sism::light_samples;
 use crate::exec::{task_kind, FrameLog, Phase};
 use crate::stats::{percentiles, Dist, StatsReport};
 use visibility::{Function, Settings};
@@ -180,41 +179,14 @@ fn settings(params: &Params) -> Settings {
 
 /// A revectorization frame: light samples, depth maps from the light centre, lookups.
 fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Method) -> AlgorithmFrame {
-    let scene = inputs.prepared.scene;
-    let samples = log.phase(
-        "light_samples",
-        "light view fitted to the receivers and their light-space samples",
-        |p| light_samples::build(p, inputs.receivers, &scene.light),
-    );
-    let mp = map_params(params);
-    let centre = scene.light.center();
-    let maps = log.phase("depth_map", "light-view depth maps (binned rasterizer)", |p| {
-        depth_map::render_maps(p, scene, &samples, centre, &mp)
-    });
     let s = settings(params);
-    let mut visibility = samples.image;
-    let out = log.phase("lookup", "revectorization lookups", |p| {
-        let mut values = vec![0f32; samples.samples.len()];
-        let out = lookups(
-            p,
-            &maps,
-            &samples.samples,
-            samples.light.center - centre,
-            method,
-            &s,
-            &mut values,
-        );
-        let pixels: Vec<u32> = samples.samples.iter().map(|s| s.pixel).collect();
-        crate::algorithms::pixels::scatter_to_pixels(
-            p,
-            "scatter",
-            task_kind::SHADOW_SCATTER,
-            &pixels,
-            &values,
-            &mut visibility.values,
-        );
-        out
-    });
+    let (visibility, map_stats, out) = map_frame(
+        inputs,
+        params,
+        log,
+        "revectorization lookups",
+        |p, maps, samples, shift, values| lookups(p, maps, samples, shift, method, &s, values),
+    );
     let stats = RbsmStats {
         fragments: out.fragments,
         taps_per_fragment: match method {
@@ -226,7 +198,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         differs_from_hard: out.differs_from_hard,
     };
     let mut rows = StatsReport::default();
-    rows.rows(&maps.stats(mp.size)).rows(&stats);
+    rows.rows(&map_stats).rows(&stats);
     AlgorithmFrame {
         visibility,
         stats: rows,
@@ -253,22 +225,7 @@ fn lookups(
     s: &Settings,
     values: &mut [f32],
 ) -> LookupOut {
-    let mut tasks = Vec::new();
-    let mut rest: &mut [f32] = values;
-    let mut start = 0;
-    while start < samples.len() {
-        let face = samples[start].face;
-        let end = start + samples[start..].partition_point(|s| s.face == face);
-        let mut k = start;
-        while k < end {
-            let stop = (k + LOOKUP_CHUNK).min(end);
-            let (head, tail) = std::mem::take(&mut rest).split_at_mut(stop - k);
-            tasks.push((face, k..stop, head));
-            rest = tail;
-            k = stop;
-        }
-        start = end;
-    }
+    let tasks = face_tasks(samples, values);
     let outs = phase.run_par(
         "lookup",
         tasks.into_par_iter().map(|(face, range, out)| RbsmLookup {

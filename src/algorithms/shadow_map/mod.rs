@@ -23,10 +23,14 @@ pub mod lookup;
 use rayon::prelude::*;
 
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use std::ops::Range;
+
+use crate::algorithms::sism::grid::SampleIn;
 use crate::algorithms::sism::light_samples;
-use crate::exec::{task_kind, FrameLog};
+use crate::exec::{task_kind, FrameLog, Phase};
+use crate::frame::VisibilityImage;
 use crate::stats::StatsReport;
-use depth_map::{LightMaps, MapParams};
+use depth_map::{LightMaps, MapParams, MapStats};
 use lookup::{LookupCounts, LookupTask, Method};
 
 /// Receivers per lookup task.
@@ -177,8 +181,17 @@ pub fn map_params(params: &Params) -> MapParams {
     }
 }
 
-/// A shadow-map frame: light samples, depth maps from the light centre, lookups.
-fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Method) -> AlgorithmFrame {
+/// A frame of the family: light samples (phase `light_samples`), depth maps from the light centre
+/// (`depth_map`), then phase `lookup`: `lookup` writes one visibility per sample (sample order) and
+/// its counters come back, then step `scatter` puts the values into the image. `what` describes the
+/// lookup phase.
+pub fn map_frame<T>(
+    inputs: &FrameInputs<'_>,
+    params: &Params,
+    log: &mut FrameLog,
+    what: &'static str,
+    lookup: impl FnOnce(&mut Phase, &LightMaps, &[SampleIn], glam::Vec3, &mut [f32]) -> T,
+) -> (VisibilityImage, MapStats, T) {
     let scene = inputs.prepared.scene;
     let samples = log.phase(
         "light_samples",
@@ -191,15 +204,13 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         depth_map::render_maps(p, scene, &samples, centre, &map_params)
     });
     let mut visibility = samples.image;
-    let counts = log.phase("lookup", "per-receiver map lookups", |p| {
+    let counts = log.phase("lookup", what, |p| {
         let mut values = vec![0f32; samples.samples.len()];
-        let counts = lookups(
+        let counts = lookup(
             p,
             &maps,
             &samples.samples,
-            &inputs.receivers.pixels,
             samples.light.center - centre,
-            &method,
             &mut values,
         );
         let pixels: Vec<u32> = samples.samples.iter().map(|s| s.pixel).collect();
@@ -213,37 +224,12 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
         );
         counts
     });
-    let stats = ShadowMapStats {
-        fragments: counts.fragments,
-        taps: counts.taps,
-        taps_per_fragment: if counts.fragments == 0 {
-            0.0
-        } else {
-            counts.taps as f64 / counts.fragments as f64
-        },
-        differs_from_hard: counts.differs_from_hard,
-        no_blocker: counts.no_blocker,
-    };
-    let mut out = StatsReport::default();
-    out.rows(&maps.stats(map_params.size)).rows(&stats);
-    AlgorithmFrame {
-        visibility,
-        stats: out,
-    }
+    (visibility, maps.stats(map_params.size), counts)
 }
 
-/// Looks every sample (grouped by face) up in its face's map, as tasks of [`LOOKUP_CHUNK`] samples of
-/// step `lookup`; writes the visibilities into `values` (sample order).
-pub fn lookups(
-    phase: &mut crate::exec::Phase,
-    maps: &LightMaps,
-    samples: &[crate::algorithms::sism::grid::SampleIn],
-    receivers: &[Option<crate::frame::Receiver>],
-    shift: glam::Vec3,
-    method: &Method,
-    values: &mut [f32],
-) -> LookupCounts {
-    // Tasks never straddle a face: chunk each face's run of samples.
+/// The lookup tasks of `samples` (grouped by face): per task its face, its range of samples and its
+/// part of `values`, at most [`LOOKUP_CHUNK`] samples each and never straddling a face.
+pub fn face_tasks<'v>(samples: &[SampleIn], values: &'v mut [f32]) -> Vec<(u8, Range<usize>, &'v mut [f32])> {
     let mut tasks = Vec::new();
     let mut rest: &mut [f32] = values;
     let mut start = 0;
@@ -260,6 +246,51 @@ pub fn lookups(
         }
         start = end;
     }
+    tasks
+}
+
+/// A shadow-map frame: light samples, depth maps from the light centre, lookups.
+fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Method) -> AlgorithmFrame {
+    let (visibility, map_stats, counts) = map_frame(
+        inputs,
+        params,
+        log,
+        "per-receiver map lookups",
+        |p, maps, samples, shift, values| {
+            lookups(p, maps, samples, &inputs.receivers.pixels, shift, &method, values)
+        },
+    );
+    let stats = ShadowMapStats {
+        fragments: counts.fragments,
+        taps: counts.taps,
+        taps_per_fragment: if counts.fragments == 0 {
+            0.0
+        } else {
+            counts.taps as f64 / counts.fragments as f64
+        },
+        differs_from_hard: counts.differs_from_hard,
+        no_blocker: counts.no_blocker,
+    };
+    let mut out = StatsReport::default();
+    out.rows(&map_stats).rows(&stats);
+    AlgorithmFrame {
+        visibility,
+        stats: out,
+    }
+}
+
+/// Looks every sample (grouped by face) up in its face's map, as tasks of [`LOOKUP_CHUNK`] samples of
+/// step `lookup`; writes the visibilities into `values` (sample order).
+pub fn lookups(
+    phase: &mut Phase,
+    maps: &LightMaps,
+    samples: &[SampleIn],
+    receivers: &[Option<crate::frame::Receiver>],
+    shift: glam::Vec3,
+    method: &Method,
+    values: &mut [f32],
+) -> LookupCounts {
+    let tasks = face_tasks(samples, values);
     let counts = phase.run_par(
         "lookup",
         tasks.into_par_iter().map(|(face, range, out)| LookupTask {

@@ -58,7 +58,7 @@ use super::penumbra::{
     bin_parts, count_reached, quad_in_bin, run_parts, select_in_wedge, BinPart, PenumbraStats,
 };
 use super::{Occluders, SismLight, StageInputs};
-use crate::algorithms::reference::ray_offset;
+use crate::algorithms::reference::DiskRays;
 use crate::bvh::beam::{Beam, BEAM_RAYS};
 use crate::bvh::SceneBvh;
 use crate::exec::{task_kind, Phase};
@@ -304,41 +304,39 @@ impl SampledBin<'_> {
     /// The part's visible fractions by shadow rays to each sample's light points: a point is lit when
     /// no triangle crosses the segment to it. A point below the receiver's tangent plane casts no ray
     /// and counts lit here, because the resolve's horizon term accounts for it (as for Eq. 3's
-    /// counts). Returns the rays cast.
+    /// counts).
     #[inline(always)]
-    fn cast_rays<S: Simd>(&mut self, s: S, rays: RayCast<'_>) -> u64 {
+    fn cast_rays<S: Simd>(&mut self, s: S, rays: RayCast<'_>) {
         let base = self.part.samples.start;
         let c = self.light.center;
-        let radius = self.light.radius;
         let mut beam = Beam::new(c);
         let mut stack = Vec::new();
         let mut hits = [sism_simd::Mask16::NONE; BEAM_RAYS / 16];
         let mut offsets = [glam::Vec3::ZERO; LIGHT_POINTS];
-        let mut cast = 0u64;
         for (i, out) in self.out.iter_mut().enumerate() {
             let pixel = self.grid.samples.pixel[base + i];
             let Some(rcv) = rays.receivers.pixels.get(pixel as usize).copied().flatten() else {
                 continue;
             };
+            // (Samples are receivers facing the light centre, by the same test.)
+            let Some(disk) = DiskRays::new(rays.bvh, c, self.light.radius, &rcv) else {
+                continue;
+            };
             s.scalar_ops(40);
             light_points_into(rcv.position - c, pixel, self.points, self.rotations, &mut offsets);
-            let origin = rcv.position + rcv.normal * ray_offset(rays.bvh, rcv.position);
-            beam.reset(origin);
+            beam.reset(disk.origin);
             // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
             for &k in &self.points.by_angle {
-                let d = c + offsets[k as usize] * radius - origin;
-                let len = d.length();
-                if len > 0.0 && d.dot(rcv.normal) > 0.0 {
-                    beam.push(d / len, len);
+                let o = offsets[k as usize];
+                if let Some((dir, len)) = disk.ray(c + o * self.light.radius) {
+                    beam.push(dir, len);
                 }
             }
             s.scalar_ops(12 * LIGHT_POINTS as u64);
-            cast += beam.len() as u64;
             rays.bvh.beams().occluded(s, &beam, &mut stack, &mut hits);
             let blocked: u32 = hits.iter().map(|m| m.count()).sum();
             *out = (LIGHT_POINTS as u32 - blocked) as f32 / LIGHT_POINTS as f32;
         }
-        cast
     }
 }
 
@@ -607,13 +605,8 @@ fn add_edge_points<S: Simd>(
 /// that ray-cast to the very points the kernel counts at.
 pub fn light_point_offsets(q: glam::Vec3, pixel: u32) -> Vec<glam::Vec3> {
     let mut out = [glam::Vec3::ZERO; LIGHT_POINTS];
-    light_points_into(
-        q,
-        pixel,
-        &point_set(),
-        (&rotation_table().0, &rotation_table().1),
-        &mut out,
-    );
+    let (cos, sin) = rotation_table();
+    light_points_into(q, pixel, &point_set(), (&cos, &sin), &mut out);
     out.to_vec()
 }
 
