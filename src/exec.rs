@@ -80,6 +80,9 @@ pub struct PhaseTime {
     /// True when the phase ran its work as kernels (even as no task at all: nothing to do); false
     /// when it never went through the kernel runners (host work the model cannot time).
     pub modelled: bool,
+    /// Host wall time of each named step the phase ran kernels in (`step`, not `phase.step`), in
+    /// first-run order; a step run several times sums its runs.
+    pub steps: Vec<(String, Duration)>,
 }
 
 /// A frame's phases: host times, and under [`Exec::Counting`] every step's task records.
@@ -115,6 +118,7 @@ impl FrameLog {
             tasks: 0,
             modelled: false,
             steps: Vec::new(),
+            step_times: Vec::new(),
         };
         let out = f(&mut phase);
         self.times.push(PhaseTime {
@@ -123,6 +127,7 @@ impl FrameLog {
             host: t.elapsed(),
             tasks: phase.tasks,
             modelled: phase.modelled,
+            steps: phase.step_times,
         });
         self.records.extend(phase.steps);
         out
@@ -155,7 +160,8 @@ impl FrameLog {
         self.times.iter().filter(move |t| counting && !t.modelled)
     }
 
-    /// `time.<phase>` per phase and `time.frame` (their sum), host wall times in ms.
+    /// `time.<phase>` per phase, `time.<phase>.<step>` per named step of a phase of several steps,
+    /// and `time.frame` (the phases' sum), host wall times in ms.
     pub fn time_rows(&self, out: &mut StatsReport) {
         for t in &self.times {
             out.stat(
@@ -164,6 +170,16 @@ impl FrameLog {
                 "ms",
                 &format!("{} (host wall time)", t.what),
             );
+            if t.steps.len() > 1 {
+                for (step, host) in t.steps.iter().filter(|(step, _)| !step.is_empty()) {
+                    out.stat(
+                        &format!("time.{}.{step}", t.name),
+                        host.as_secs_f64() * 1e3,
+                        "ms",
+                        &format!("step `{step}` of the {} phase (host wall time)", t.name),
+                    );
+                }
+            }
         }
         out.stat(
             "time.frame",
@@ -197,6 +213,7 @@ pub struct Phase {
     tasks: u64,
     modelled: bool,
     steps: Vec<PhaseRecords>,
+    step_times: Vec<(String, Duration)>,
 }
 
 impl Phase {
@@ -223,7 +240,9 @@ impl Phase {
 
     /// Runs `k` as one task of step `step` on the calling thread.
     pub fn run<K: Kernel>(&mut self, step: &str, k: K) -> K::Output {
+        let t = Instant::now();
         let (out, records) = run_task(self.exec, k);
+        self.time_step(step, t.elapsed());
         self.file(step, 1, vec![records]);
         out
     }
@@ -237,8 +256,10 @@ impl Phase {
         I: ParallelIterator<Item = K>,
     {
         let exec = self.exec;
+        let t = Instant::now();
         let (outs, records): (Vec<K::Output>, Vec<Vec<TaskRecord>>) =
             tasks.map(|k| run_task(exec, k)).unzip();
+        self.time_step(step, t.elapsed());
         self.file(step, outs.len() as u64, records);
         outs
     }
@@ -247,8 +268,10 @@ impl Phase {
     /// shares one output buffer) as tasks of step `step`: the modelled chip still runs them in parallel.
     pub fn run_seq<K: Kernel>(&mut self, step: &str, tasks: impl IntoIterator<Item = K>) -> Vec<K::Output> {
         let exec = self.exec;
+        let t = Instant::now();
         let (outs, records): (Vec<K::Output>, Vec<Vec<TaskRecord>>) =
             tasks.into_iter().map(|k| run_task(exec, k)).unzip();
+        self.time_step(step, t.elapsed());
         self.file(step, outs.len() as u64, records);
         outs
     }
@@ -257,6 +280,14 @@ impl Phase {
     /// falls in): the phase is timed, as zero, rather than listed as untimed host work.
     pub fn skip(&mut self) {
         self.modelled = true;
+    }
+
+    /// Adds `host` to step `step`'s host time.
+    fn time_step(&mut self, step: &str, host: Duration) {
+        match self.step_times.iter_mut().find(|(name, _)| name == step) {
+            Some((_, total)) => *total += host,
+            None => self.step_times.push((step.to_string(), host)),
+        }
     }
 
     fn file(&mut self, step: &str, tasks: u64, records: Vec<Vec<TaskRecord>>) {

@@ -339,6 +339,10 @@ fn bins_that_cast_rays_give_the_light_points_answer() {
         ray_samples > 1000.0,
         "the penumbra's bins cast rays: {ray_samples} samples"
     );
+    // Only probed parts cast, and the probes walked the BVH.
+    let stat = |k: &str| native.stats.get(k).unwrap();
+    assert!(stat("penumbra.ray_parts_probed") >= stat("penumbra.ray_parts"));
+    assert!(stat("penumbra.ray_probe_work") > 0.0);
     // The receivers of the same eye pass.
     let receivers = render_scene(
         &scene,

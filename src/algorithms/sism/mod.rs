@@ -53,8 +53,8 @@ pub struct SismOptions {
     /// Estimator of the light-point composition (`Composition::Sampled` only).
     pub light_point_estimator: sampled::LightPointEstimator,
     /// `Composition::Sampled` with a BVH given: estimated Eq. 3 evaluations per sample at or above
-    /// which a bin's samples cast rays to their light points instead ([`sampled::RayFallback`]); 0:
-    /// never.
+    /// which a bin part measures what its samples' rays to their light points cost, and casts them
+    /// where they are cheaper ([`sampled::RayFallback`]); 0: never.
     pub ray_evaluations: u32,
     /// Triangles of the scene's BVH if it is not built yet (0 when it is): see
     /// [`sampled::RayFallback::unbuilt_triangles`].
@@ -313,14 +313,15 @@ elsewhere; fraction: the lit share everywhere",
         key: "ray_evaluations",
         kind: ParamKind::Int { min: 0, max: 1 << 24 },
         default: RAY_EVALUATIONS_DEFAULT,
-        description:
-            "quads of a bin at or above which its samples cast shadow rays to their 64 light points \
-instead of evaluating Eq. 3 (cost-aware penumbra); 0: never",
+        description: "estimated Eq. 3 evaluations per sample at or above which a bin part probes what its \
+samples' shadow rays to their 64 light points cost, and casts them where they cost less than its Eq. 3 \
+work (cost-aware penumbra); 0: never",
     },
 ];
 
-/// Default of `ray_evaluations`: about where a sample's Eq. 3 light-point work costs as much as its 64
-/// shadow rays in the bins that reach it (see ARCHITECTURE.md, "The cost-aware penumbra").
+/// Default of `ray_evaluations`: below it a sample's Eq. 3 light-point work is cheaper than its 64
+/// shadow rays in all but open scenes, so probing the rays' cost would not pay (see ARCHITECTURE.md,
+/// "The cost-aware penumbra").
 const RAY_EVALUATIONS_DEFAULT: &str = "2048";
 
 /// `sism`: the paper's additive composition.

@@ -48,6 +48,11 @@ crate::declare_stats! {
         pub samples_culled_by_wedge: u64 => ("penumbra.samples_culled_by_wedge", "samples", "samples under a quad outside its wedge (by row depth or per sample)"),
         /// Bin parts that cast rays to their light points instead of evaluating Eq. 3 (`sism-sampled`).
         pub ray_parts: u64 => ("penumbra.ray_parts", "parts", "bin parts that cast rays to their light points instead of Eq. 3 (cost-aware penumbra)"),
+        /// Parts whose estimated Eq. 3 work reached `ray_evaluations` per sample, and whose rays'
+        /// cost was therefore measured on a few samples (step `ray_probe`).
+        pub ray_parts_probed: u64 => ("penumbra.ray_parts_probed", "parts", "bin parts whose rays' cost was probed (estimated Eq. 3 work at or above ray_evaluations per sample)"),
+        /// Beam-walk steps of the probes (node tests, 16-ray triangle and box tests).
+        pub ray_probe_work: u64 => ("penumbra.ray_probe_work", "steps", "beam-walk steps of the probes (node tests, 16-ray triangle and box tests)"),
         /// Samples of those parts.
         pub ray_samples: u64 => ("penumbra.ray_samples", "samples", "samples whose light points were ray-cast"),
         /// Sample-edge evaluations of Eq. 3 (active lanes).

@@ -144,7 +144,9 @@ fn rotation_table() -> (Vec<f32>, Vec<f32>) {
 /// The cost-aware penumbra: a bin part whose quads would cost more than casting its samples' rays
 /// casts shadow rays to the same [`LIGHT_POINTS`] light points instead (beams over the scene's BVH,
 /// `bvh::beam`), so SISM is never the slow path. A bin knows its quad count before any Eq. 3 runs,
-/// and per sample Eq. 3's light-point work grows with it while the rays' cost does not.
+/// and per sample Eq. 3's light-point work grows with it; the rays' cost depends on the geometry
+/// around the receiver (a foliage receiver's 64 rays walk 20× the nodes of an open one's), so it is
+/// measured on a few samples of each candidate part rather than assumed.
 #[derive(Clone, Copy)]
 pub struct RayFallback<'a> {
     /// The scene's BVH, built (once per scene) only when some part casts rays.
@@ -154,7 +156,8 @@ pub struct RayFallback<'a> {
     pub unbuilt_triangles: usize,
     /// The frame's receivers (a sample's pixel indexes them).
     pub receivers: &'a Receivers,
-    /// Estimated Eq. 3 evaluations per sample at or above which a bin part casts rays (>= 1).
+    /// Estimated Eq. 3 evaluations per sample at or above which a bin part probes its rays' cost
+    /// (>= 1); it casts them where they are cheaper than its Eq. 3 work.
     pub min_evaluations: u32,
 }
 
@@ -169,7 +172,8 @@ pub const BUILD_EVALUATIONS_PER_TRIANGLE: u64 = 32;
 
 /// Visible fraction of every sample (sorted order) under light-point composition, one task per bin
 /// part (step `light_points`). `depth` is the umbra's depth complexity per sample (sorted order).
-/// With `rays`, parts with at least `min_quads` quads cast rays instead of evaluating Eq. 3.
+/// With `rays`, parts whose estimated Eq. 3 work reaches `min_evaluations` per sample and exceeds
+/// their probed rays' cost cast rays instead of evaluating Eq. 3.
 pub fn visible_fraction(
     phase: &mut Phase,
     inputs: &StageInputs<'_>,
@@ -187,10 +191,11 @@ pub fn visible_fraction(
     let rotations = rotation_table();
     let parts = bin_parts(grid, lists);
     // The cost-aware penumbra: each part's Eq. 3 evaluations estimated from a sparse subset of its
-    // quads' wedge selections (step `ray_estimate`); the parts where they exceed the rays' cost cast
-    // rays. Parts with fewer quads than the threshold cannot reach it (one evaluation per quad and
-    // sample at most).
+    // quads' wedge selections (step `ray_estimate`); the parts at or above the threshold probe their
+    // rays' cost (step `ray_probe`), and cast rays where that is lower. Parts with fewer quads than
+    // the threshold cannot reach it (one evaluation per quad and sample at most).
     let mut cast = vec![false; parts.len()];
+    let mut ray_tracer = None;
     if let Some(r) = rays {
         let threshold = r.min_evaluations.max(1) as u64;
         let candidates: Vec<usize> = (0..parts.len())
@@ -207,29 +212,51 @@ pub fn visible_fraction(
             }),
         );
         let mut saved = 0u64;
+        let mut probed: Vec<(usize, u64)> = Vec::new();
         for (&k, &estimate) in candidates.iter().zip(&estimates) {
             let at_threshold = threshold * parts[k].samples.len() as u64;
-            cast[k] = estimate >= at_threshold;
-            saved += estimate.saturating_sub(at_threshold);
+            if estimate >= at_threshold {
+                probed.push((k, estimate));
+                saved += estimate.saturating_sub(at_threshold);
+            }
         }
-        if saved < BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64 {
-            cast.iter_mut().for_each(|c| *c = false);
+        // The BVH is built only if the candidates' work beyond the threshold could pay for it.
+        if !probed.is_empty() && saved >= BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64 {
+            let tracer = LightPointRays {
+                bvh: (r.bvh)(),
+                receivers: r.receivers,
+                grid,
+                light: inputs.light,
+                points: &points,
+                rotations: (&rotations.0, &rotations.1),
+            };
+            // Step `ray_probe`: what rays cost here (a foliage receiver's 64 rays can take 20× an
+            // open one's), measured on a few of each candidate's samples; the part casts rays only
+            // where that cost, scaled to all its samples, is below its estimated Eq. 3 work.
+            let work = phase.run_par(
+                "ray_probe",
+                probed.par_iter().map(|&(k, _)| RayProbe {
+                    tracer,
+                    part: &parts[k],
+                }),
+            );
+            stats.ray_parts_probed += probed.len() as u64;
+            for (&(k, estimate), &(beam_work, n_probed)) in probed.iter().zip(&work) {
+                stats.ray_probe_work += beam_work;
+                let n = parts[k].samples.len() as f64;
+                let ray_cost = beam_work as f64 / n_probed.max(1) as f64 * n * EVALUATIONS_PER_BEAM_OP;
+                cast[k] = ray_cost < estimate as f64;
+            }
+            ray_tracer = cast.contains(&true).then_some(tracer);
         }
     }
-    let ray_cast = match rays {
-        Some(r) if cast.contains(&true) => Some(RayCast {
-            bvh: (r.bvh)(),
-            receivers: r.receivers,
-        }),
-        _ => None,
-    };
     // A part's index in `parts` (run_parts hands out references into it).
     let part_index = |part: &BinPart| {
         (part as *const BinPart as usize - parts.as_ptr() as usize) / std::mem::size_of::<BinPart>()
     };
     run_parts(phase, "light_points", &mut visible, &parts, stats, |part, out| {
         SampledBin {
-            rays: ray_cast.filter(|_| cast[part_index(part)]),
+            rays: ray_tracer.filter(|_| cast[part_index(part)]),
             edges: &occluders.silhouettes.edges,
             light: inputs.light,
             grid,
@@ -260,14 +287,118 @@ struct SampledBin<'a> {
     /// Visible fraction of the part's samples (part-local).
     out: &'a mut [f32],
     /// Set when this part casts rays instead (see [`RayFallback`]).
-    rays: Option<RayCast<'a>>,
+    rays: Option<LightPointRays<'a>>,
 }
 
-/// What a part that casts rays needs.
+/// Shadow rays from samples to their light points (the parts that cast rays, and the probes).
 #[derive(Clone, Copy)]
-struct RayCast<'a> {
+struct LightPointRays<'a> {
     bvh: &'a SceneBvh,
     receivers: &'a Receivers,
+    grid: &'a Grid,
+    light: &'a SismLight,
+    points: &'a PointSet,
+    rotations: (&'a [f32], &'a [f32]),
+}
+
+/// A sample's beam and the walk's scratch, reused across samples.
+struct RayScratch {
+    beam: Beam,
+    stack: Vec<(u32, u16)>,
+    hits: [sism_simd::Mask16; BEAM_RAYS / 16],
+    offsets: [glam::Vec3; LIGHT_POINTS],
+}
+
+impl RayScratch {
+    fn new(light: &SismLight) -> RayScratch {
+        RayScratch {
+            beam: Beam::new(light.center),
+            stack: Vec::new(),
+            hits: [sism_simd::Mask16::NONE; BEAM_RAYS / 16],
+            offsets: [glam::Vec3::ZERO; LIGHT_POINTS],
+        }
+    }
+}
+
+impl LightPointRays<'_> {
+    /// Visible fraction of sample `sample` (sorted order) by shadow rays to its light points: a point
+    /// is lit when no triangle crosses the segment to it. A point below the receiver's tangent plane
+    /// casts no ray and counts lit here, because the resolve's horizon term accounts for it (as for
+    /// Eq. 3's counts). `None` for a sample without a receiver facing the light; with the walk's work
+    /// (node tests + triangle and box vectors).
+    #[inline(always)]
+    fn visible<S: Simd>(&self, s: S, sample: usize, scratch: &mut RayScratch) -> (Option<f32>, u64) {
+        let c = self.light.center;
+        let pixel = self.grid.samples.pixel[sample];
+        let Some(rcv) = self.receivers.pixels.get(pixel as usize).copied().flatten() else {
+            return (None, 0);
+        };
+        // (Samples are receivers facing the light centre, by the same test.)
+        let Some(disk) = DiskRays::new(self.bvh, c, self.light.radius, &rcv) else {
+            return (None, 0);
+        };
+        s.scalar_ops(40);
+        light_points_into(
+            rcv.position - c,
+            pixel,
+            self.points,
+            self.rotations,
+            &mut scratch.offsets,
+        );
+        scratch.beam.reset(disk.origin);
+        // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
+        for &k in &self.points.by_angle {
+            let o = scratch.offsets[k as usize];
+            if let Some((dir, len)) = disk.ray(c + o * self.light.radius) {
+                scratch.beam.push(dir, len);
+            }
+        }
+        s.scalar_ops(12 * LIGHT_POINTS as u64);
+        let counts = self
+            .bvh
+            .beams()
+            .occluded(s, &scratch.beam, &mut scratch.stack, &mut scratch.hits);
+        let blocked: u32 = scratch.hits.iter().map(|m| m.count()).sum();
+        let work = counts.nodes + counts.triangle_vectors + counts.box_vectors;
+        (
+            Some((LIGHT_POINTS as u32 - blocked) as f32 / LIGHT_POINTS as f32),
+            work,
+        )
+    }
+}
+
+/// Samples of a candidate part whose rays step `ray_probe` casts (evenly spread over the part).
+const PROBE_SAMPLES: usize = 4;
+
+/// Cost of one step of a beam walk (a node's cone test, a 16-ray triangle or box test) in Eq. 3
+/// light-point evaluations, as measured on the project's AVX-512 host at 1600×1200 (palm: about
+/// 10–11 ns a step against 13–15 ns an evaluation, per thread; rounded up, so that a close call
+/// keeps Eq. 3).
+const EVALUATIONS_PER_BEAM_OP: f64 = 0.8;
+
+/// Step `ray_probe`: the beam work of [`PROBE_SAMPLES`] of a part's samples, and how many had rays.
+struct RayProbe<'a> {
+    tracer: LightPointRays<'a>,
+    part: &'a BinPart,
+}
+
+impl Kernel for RayProbe<'_> {
+    type Output = (u64, u64);
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> (u64, u64) {
+        s.begin_task(task_kind::SAMPLED_BIN);
+        let n = self.part.samples.len();
+        let mut scratch = RayScratch::new(self.tracer.light);
+        let (mut work, mut probed) = (0, 0);
+        for j in 0..PROBE_SAMPLES.min(n) {
+            let i = self.part.samples.start + (2 * j + 1) * n / (2 * PROBE_SAMPLES.min(n));
+            let (visible, w) = self.tracer.visible(s, i, &mut scratch);
+            work += w;
+            probed += visible.is_some() as u64;
+        }
+        s.end_task();
+        (work, probed)
+    }
 }
 
 /// Step `ray_estimate`: a part's Eq. 3 evaluations (samples inside each quad's wedge, summed),
@@ -301,41 +432,16 @@ impl Kernel for EvaluationEstimate<'_> {
 }
 
 impl SampledBin<'_> {
-    /// The part's visible fractions by shadow rays to each sample's light points: a point is lit when
-    /// no triangle crosses the segment to it. A point below the receiver's tangent plane casts no ray
-    /// and counts lit here, because the resolve's horizon term accounts for it (as for Eq. 3's
-    /// counts).
+    /// The part's visible fractions by shadow rays to each sample's light points (see
+    /// [`LightPointRays::visible`]).
     #[inline(always)]
-    fn cast_rays<S: Simd>(&mut self, s: S, rays: RayCast<'_>) {
+    fn cast_rays<S: Simd>(&mut self, s: S, rays: LightPointRays<'_>) {
         let base = self.part.samples.start;
-        let c = self.light.center;
-        let mut beam = Beam::new(c);
-        let mut stack = Vec::new();
-        let mut hits = [sism_simd::Mask16::NONE; BEAM_RAYS / 16];
-        let mut offsets = [glam::Vec3::ZERO; LIGHT_POINTS];
+        let mut scratch = RayScratch::new(self.light);
         for (i, out) in self.out.iter_mut().enumerate() {
-            let pixel = self.grid.samples.pixel[base + i];
-            let Some(rcv) = rays.receivers.pixels.get(pixel as usize).copied().flatten() else {
-                continue;
-            };
-            // (Samples are receivers facing the light centre, by the same test.)
-            let Some(disk) = DiskRays::new(rays.bvh, c, self.light.radius, &rcv) else {
-                continue;
-            };
-            s.scalar_ops(40);
-            light_points_into(rcv.position - c, pixel, self.points, self.rotations, &mut offsets);
-            beam.reset(disk.origin);
-            // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
-            for &k in &self.points.by_angle {
-                let o = offsets[k as usize];
-                if let Some((dir, len)) = disk.ray(c + o * self.light.radius) {
-                    beam.push(dir, len);
-                }
+            if let (Some(visible), _) = rays.visible(s, base + i, &mut scratch) {
+                *out = visible;
             }
-            s.scalar_ops(12 * LIGHT_POINTS as u64);
-            rays.bvh.beams().occluded(s, &beam, &mut stack, &mut hits);
-            let blocked: u32 = hits.iter().map(|m| m.count()).sum();
-            *out = (LIGHT_POINTS as u32 - blocked) as f32 / LIGHT_POINTS as f32;
         }
     }
 }
