@@ -169,6 +169,64 @@ pub fn render_prepared(
     }
 }
 
+/// Renders `frames` (>= 1) frames of `scene` one after another with the per-scene data prepared once,
+/// and returns the last: a steady-state frame, whose buffers come from pages the earlier frames
+/// touched (see `main.rs` on the allocator). Its stats gain `frames`, `time.frame_first` (the first
+/// frame's `time.frame`) and `time.frame_median` (over all frames). Panics if two frames' images
+/// differ: frames are deterministic.
+pub fn render_frames(
+    scene: &Scene,
+    algorithm: &Algorithm,
+    params: &Params,
+    options: &RenderOptions,
+    frames: usize,
+) -> RenderResult {
+    assert!(frames >= 1, "at least one frame");
+    let prepared = PreparedScene::new(scene);
+    let mut times = Vec::with_capacity(frames);
+    let mut last: Option<RenderResult> = None;
+    for _ in 0..frames {
+        let r = render_prepared(&prepared, algorithm, params, options);
+        times.push(r.stats.get("time.frame").unwrap_or(0.0));
+        if let Some(prev) = &last {
+            let same = prev.visibility.values.len() == r.visibility.values.len()
+                && prev
+                    .visibility
+                    .values
+                    .iter()
+                    .zip(&r.visibility.values)
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same, "two frames of the same inputs differ");
+        }
+        last = Some(r);
+    }
+    let mut result = last.expect("frames >= 1");
+    let first = times[0];
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    result
+        .stats
+        .stat(
+            "frames",
+            frames as f64,
+            "frames",
+            "frames rendered in a row (the last is reported)",
+        )
+        .stat(
+            "time.frame_first",
+            first,
+            "ms",
+            "the first frame's time.frame: scene data and pages touched for the first time",
+        )
+        .stat(
+            "time.frame_median",
+            median,
+            "ms",
+            "median time.frame over the frames (steady state)",
+        );
+    result
+}
+
 /// A render timed on a modelled machine: counted, then its records replayed.
 pub struct MachineRender {
     /// The render (its raw `records` already replaced by `records` below: empty).

@@ -373,6 +373,59 @@ fn penumbra_half_width_is_conservative_on_axis() {
     assert_eq!(penumbra_half_width(1.0, 5.0, 2.0), 0.0);
 }
 
+/// The per-sample wedge radius of `penumbra::sample_wedge_radii`: off the light-view axis (up to
+/// 80°), every edge point that gives a nonzero term lies within `R_p (1/z_e - 1/z_p)` of the
+/// receiver's image, with `R_p = r |p| / (z_p - r)` (p relative to the light centre, z along the
+/// axis), and the bound is nearly reached somewhere.
+#[test]
+fn per_sample_wedge_radius_is_conservative_off_axis() {
+    let mut rng = Rng(7);
+    let (mut tight, mut hits) = (0.0f64, 0);
+    for _ in 0..40_000 {
+        // View axis -z; receiver at depth zp, off axis by up to 80°.
+        let zp = rng.range(1.0, 10.0);
+        let r = zp * rng.log(0.01, 0.45);
+        let (tan, phi) = (rng.range(0.0, 80f64.to_radians()).tan(), rng.range(0.0, 2.0 * PI));
+        let (up, vp) = (tan * phi.cos(), tan * phi.sin());
+        let p = [up * zp, vp * zp, -zp];
+        // A short edge at depth ze, its image near the receiver's.
+        let ze = rng.range(0.05, 1.0) * zp;
+        let reach = 2.0 * r * (1.0 + tan * tan) * (1.0 / ze - 1.0 / zp);
+        let (ue, ve) = (
+            up + rng.range(-1.0, 1.0) * reach,
+            vp + rng.range(-1.0, 1.0) * reach,
+        );
+        let (x, y) = (ue * ze, ve * ze);
+        let a = [x, y, -ze];
+        let b = [x + 1e-7 * r, y + 2e-7 * r, -ze];
+        let t = edge_term_f64(
+            p,
+            &EdgeRecordF64 {
+                a,
+                b,
+                v3: [[x + r, y - r, -ze]; 2],
+                n_tri: 1,
+            },
+            r,
+        );
+        if t == 0.0 || zp <= 2.0 * r {
+            continue;
+        }
+        hits += 1;
+        let dist = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        let radius = r * dist / (zp - r);
+        let offset = ((ue - up).powi(2) + (ve - vp).powi(2)).sqrt();
+        let bound = radius * (1.0 / ze - 1.0 / zp);
+        assert!(
+            offset <= bound * (1.0 + 1e-6),
+            "{offset} > {bound} (p {p:?}, r {r}, ze {ze})"
+        );
+        tight = tight.max(offset / bound);
+    }
+    assert!(hits > 1000, "too few edges with a term: {hits}");
+    assert!(tight > 0.9, "bound not tight: {tight}");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Stress: configurations
 // ---------------------------------------------------------------------------------------------

@@ -27,6 +27,12 @@ pub struct Args {
     /// the simd kernels (`sism algorithms` says which).
     #[arg(long)]
     machine: Option<String>,
+    /// Render the frame this many times natively (1..=1000), keeping the per-scene data (edge
+    /// adjacency, BVH) and the allocator's pages across frames, and write the last: its stats are a
+    /// steady-state frame's (no scene preparation, no first-touch page faults), with `frames`,
+    /// `time.frame_first` and `time.frame_median` added. Every frame gives the same image.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    frames: u32,
     /// No progress bar and no summary.
     #[arg(long)]
     quiet: bool,
@@ -37,6 +43,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let algo = algorithm(&a.algo)?;
     let params = a.params.resolve(algo)?;
     if let Some(m) = a.machine {
+        anyhow::ensure!(
+            a.frames == 1,
+            "--frames repeats native frames; a --machine frame is counted once (its cycles do not \
+depend on the host's state)"
+        );
         anyhow::ensure!(
             algo.kernels,
             "--machine times algorithms that run on the simd kernels ({}); {} is not one",
@@ -64,7 +75,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         progress: !a.quiet,
         ..Default::default()
     };
-    let result = render::render(&scene, algo, &params, &options);
+    let result = if a.frames > 1 {
+        render::render_frames(&scene, algo, &params, &options, a.frames as usize)
+    } else {
+        render::render(&scene, algo, &params, &options)
+    };
     render::write_outputs(&a.out, &scene, &result)?;
     if result.receivers.pixels.iter().all(|p| p.is_none()) {
         eprintln!("warning: no pixel sees a surface: the image holds only misses (check the camera)");

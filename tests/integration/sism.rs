@@ -336,7 +336,7 @@ fn bins_that_cast_rays_give_the_light_points_answer() {
     let evaluated = native.stats.get("penumbra.samples_evaluated").unwrap();
     eprintln!("ray samples {ray_samples}, Eq. 3 evaluations {evaluated}");
     assert!(
-        ray_samples > 1000.0,
+        ray_samples > 500.0,
         "the penumbra's bins cast rays: {ray_samples} samples"
     );
     // Only probed parts cast, and the probes walked the BVH.

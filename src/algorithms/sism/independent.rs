@@ -16,7 +16,9 @@
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
-use super::penumbra::{add_edge_terms, count_reached, quad_in_bin, select_in_wedge, BinPart, PenumbraStats};
+use super::penumbra::{
+    add_edge_terms, quad_in_bin, sample_wedge_radii, select_in_wedge, BinPart, PenumbraStats,
+};
 use super::umbra::{covered, triangle_in_bin, UmbraStats};
 use super::{Occluders, StageInputs};
 use crate::exec::{task_kind, Phase};
@@ -105,6 +107,7 @@ impl Kernel for OcclusionBin<'_> {
         let mut stamp = vec![u32::MAX; n_samples];
         let mut touched: Vec<i32> = Vec::new();
         let mut selected = vec![0i32; n_samples + 16];
+        let radii = sample_wedge_radii(s, grid, &part, inp.light);
         let mut reached = vec![0u32; n_samples];
         let mut culled = [0u64; 2];
         let (mut tested, mut evaluated) = (0u64, 0u64);
@@ -152,9 +155,17 @@ impl Kernel for OcclusionBin<'_> {
                     let Some(q) = quad_in_bin(grid, bin, edge, inp.light) else {
                         continue;
                     };
-                    let n = select_in_wedge(s, grid, &part, &q, &mut selected, &mut culled);
+                    let n = select_in_wedge(
+                        s,
+                        grid,
+                        &part,
+                        &q,
+                        &radii,
+                        &mut selected,
+                        &mut culled,
+                        Some(&mut reached),
+                    );
                     add_edge_terms(s, &selected, n, positions, edge, inp.light.radius, &mut coverage);
-                    count_reached(&mut reached, &selected[..n]);
                     evaluated += n as u64;
                     n
                 };

@@ -97,15 +97,6 @@ impl PenumbraStats {
     }
 }
 
-/// Counts, per bin-local sample, the quads whose wedge contained it (`selected` from
-/// [`select_in_wedge`]). Statistics only: not part of the modelled work, so not counted.
-#[inline(always)]
-pub fn count_reached(reached: &mut [u32], selected: &[i32]) {
-    for &i in selected {
-        reached[i as usize] += 1;
-    }
-}
-
 /// A face-space view of one edge: its clipped projected endpoints and nearest depth.
 #[derive(Clone, Copy, Debug)]
 struct QuadGeometry {
@@ -386,18 +377,62 @@ pub fn quad_in_bin(grid: &Grid, bin: usize, e: &EdgeRecord, light: &SismLight) -
     })
 }
 
+/// Per sample of `part` (part-local), the light radius the per-sample wedge test scales by: the
+/// face-wide `r'` ([`SismLight::wedge_radius`]) or, when smaller, the sample's own bound
+/// `r |q| / (z - r)` (with slack). For a sample at `q` (relative to the light centre, depth `z` along
+/// the face axis), a light point `L` of its disk (`|L| <= r`, `L ⊥ q`) moves the line of sight's
+/// image position at depth `z_e` by `(L_⊥ - u z_L) · z / (z - z_L) · (1/z_e - 1/z)`; the first factor is
+/// at most `r / cos β = r |q| / z` (an oblique projection along `q` of a vector perpendicular to it),
+/// the second at most `z / (z - r)`. Near the face's edges the two bounds agree; nearer its axis the
+/// sample's own is up to `1 / cos α` (the face's widening) smaller, and the wedge's area with it.
+/// Only samples whose edge term is exactly zero are dropped, so images are unchanged.
+#[inline(always)]
+pub fn sample_wedge_radii<S: Simd>(s: S, grid: &Grid, part: &BinPart, light: &SismLight) -> Vec<f32> {
+    let face = grid.bins[part.bin].face as usize;
+    let rv = s.splat_f(light.wedge_radius(face));
+    let r = s.splat_f(light.radius);
+    let slack = s.splat_f(1.0 + WEDGE_SLACK);
+    let smp = &grid.samples;
+    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
+    let range = part.samples.clone();
+    let mut out = vec![0f32; range.len()];
+    let mut i = range.start;
+    while i < range.end {
+        let m = s.mask_first_n(range.end - i);
+        let x = s.mask_load_f(zero, m, &smp.x[i..]);
+        let y = s.mask_load_f(zero, m, &smp.y[i..]);
+        let z = s.mask_load_f(zero, m, &smp.z[i..]);
+        let depth = s.mask_load_f(one, m, &smp.depth[i..]);
+        let dist = s.sqrt_f(s.fmadd(z, z, s.fmadd(y, y, s.mul_f(x, x))));
+        // Within `2r` of the light's depth the sample's bound is no better than the face's: keep r'.
+        let gap = s.sub_f(depth, r);
+        let own = s.mul_f(s.div_f(s.mul_f(r, dist), gap), slack);
+        let usable = s.cmp_gt_f(gap, r);
+        let radius = s.select_f(usable, s.min_f(own, rv), rv);
+        s.mask_store_f(&mut out[i - range.start..], m, radius);
+        i += 16;
+    }
+    out
+}
+
 /// Packs into `selected` (part-local indices, by compress-store) the part's samples inside quad `q`'s
 /// wedge: rows the wedge misses are skipped, then slices nearer than where it enters the row, then
 /// each sample is tested exactly against the wedge half-width at its depth. Returns how many were
-/// packed; adds `[rows culled, samples culled]` into `culled`.
+/// packed; adds `[rows culled, samples culled]` into `culled`. `radii` are the part's
+/// [`sample_wedge_radii`]. With `reached` (part-local, one per
+/// sample), adds 1 for each packed sample: statistics only (the quads per sample), done in plain code
+/// the compiler vectorizes, so the machine model does not count it (a scalar pass over `selected` was
+/// 6% of a penumbra).
 #[inline(always)]
 pub fn select_in_wedge<S: Simd>(
     s: S,
     grid: &Grid,
     part: &BinPart,
     q: &QuadInBin,
+    radii: &[f32],
     selected: &mut [i32],
     culled: &mut [u64; 2],
+    mut reached: Option<&mut [u32]>,
 ) -> usize {
     let bin = part.bin;
     let bn = &grid.bins[bin];
@@ -412,7 +447,7 @@ pub fn select_in_wedge<S: Simd>(
         s.splat_f(ab.x),
         s.splat_f(ab.y),
     );
-    let (inv_len2, inv_near, rv) = (s.splat_f(q.inv_len2), s.splat_f(q.inv_near), s.splat_f(q.r));
+    let (inv_len2, inv_near) = (s.splat_f(q.inv_len2), s.splat_f(q.inv_near));
     let lane = s.index_i();
     let mut n = 0usize;
     for row in q.c0.y.max(part.rows.start)..q.c1.y.min(part.rows.end) {
@@ -450,10 +485,19 @@ pub fn select_in_wedge<S: Simd>(
             let dx = s.fnmadd(t, abx, px);
             let dy = s.fnmadd(t, aby, py);
             let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
+            let rv = s.mask_load_f(zero, m, &radii[i - base..]);
             let w = s.mul_f(rv, s.sub_f(inv_near, s.rcp_f(depth)));
             let inside = s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
             let local = s.add_i(lane, s.splat_i((i - base) as i32));
             n += s.compress_store_i(&mut selected[n..], inside, local);
+            if let Some(r) = reached.as_deref_mut() {
+                let bits = inside.bits() as u32;
+                let at = i - base;
+                let lanes = (end - i).min(16);
+                for (l, c) in r[at..at + lanes].iter_mut().enumerate() {
+                    *c += (bits >> l) & 1;
+                }
+            }
             culled[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
             i += 16;
         }
@@ -579,6 +623,7 @@ impl Kernel for PenumbraBin<'_> {
         // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
         // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
         let mut selected = vec![0i32; positions.0.len() + 16];
+        let radii = sample_wedge_radii(s, self.grid, self.part, self.light);
         let mut culled = [0u64; 2];
         let mut evaluated = 0u64;
         for &e in self.quads {
@@ -587,9 +632,17 @@ impl Kernel for PenumbraBin<'_> {
             let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light) else {
                 continue;
             };
-            let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
+            let n = select_in_wedge(
+                s,
+                self.grid,
+                self.part,
+                &q,
+                &radii,
+                &mut selected,
+                &mut culled,
+                Some(&mut reached),
+            );
             add_edge_terms(s, &selected, n, positions, edge, self.light.radius, self.out);
-            count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;
         }
         s.end_task();

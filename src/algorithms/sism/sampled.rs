@@ -55,7 +55,7 @@ use sism_simd::{Kernel, Simd};
 use super::grid::Grid;
 use super::occlusion::{edge_frame, region_area, signed_sum, EdgeRecord};
 use super::penumbra::{
-    bin_parts, count_reached, quad_in_bin, run_parts, select_in_wedge, BinPart, PenumbraStats,
+    bin_parts, quad_in_bin, run_parts, sample_wedge_radii, select_in_wedge, BinPart, PenumbraStats,
 };
 use super::{Occluders, SismLight, StageInputs};
 use crate::algorithms::reference::DiskRays;
@@ -418,12 +418,22 @@ impl Kernel for EvaluationEstimate<'_> {
         s.begin_task(task_kind::SAMPLED_BIN);
         let n_samples = self.part.samples.len();
         let mut selected = vec![0i32; n_samples + 16];
+        let radii = sample_wedge_radii(s, self.grid, self.part, self.light);
         let mut ignored = [0u64; 2];
         let mut estimate = 0u64;
         for &e in self.quads.iter().step_by(ESTIMATE_STRIDE) {
             s.scalar_ops(60);
             if let Some(q) = quad_in_bin(self.grid, self.part.bin, &self.edges[e as usize], self.light) {
-                estimate += select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut ignored) as u64;
+                estimate += select_in_wedge(
+                    s,
+                    self.grid,
+                    self.part,
+                    &q,
+                    &radii,
+                    &mut selected,
+                    &mut ignored,
+                    None,
+                ) as u64;
             }
         }
         s.end_task();
@@ -520,6 +530,7 @@ impl Kernel for SampledBin<'_> {
             return ([0, 0, 0, n_samples as u64], vec![0; n_samples]);
         }
         let mut selected = vec![0i32; n_samples + 16];
+        let radii = sample_wedge_radii(s, self.grid, self.part, self.light);
         let mut reached = vec![0u32; n_samples];
         let bases = disk_bases(s, &self, positions);
         // Occluder counts minus the centre's depth complexity, LIGHT_POINTS per sample.
@@ -541,7 +552,16 @@ impl Kernel for SampledBin<'_> {
             let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light) else {
                 continue;
             };
-            let n = select_in_wedge(s, self.grid, self.part, &q, &mut selected, &mut culled);
+            let n = select_in_wedge(
+                s,
+                self.grid,
+                self.part,
+                &q,
+                &radii,
+                &mut selected,
+                &mut culled,
+                Some(&mut reached),
+            );
             add_edge_points(
                 s,
                 &selected[..n],
@@ -553,7 +573,6 @@ impl Kernel for SampledBin<'_> {
                 &mut counts,
                 &mut sums,
             );
-            count_reached(&mut reached, &selected[..n]);
             evaluated += n as u64;
         }
         // Lit points: count (centre depth complexity + edge weights) exactly zero. A negative count (an
