@@ -424,6 +424,7 @@ pub fn sample_wedge_radii<S: Simd>(s: S, grid: &Grid, part: &BinPart, light: &Si
 /// the compiler vectorizes, so the machine model does not count it (a scalar pass over `selected` was
 /// 6% of a penumbra).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn select_in_wedge<S: Simd>(
     s: S,
     grid: &Grid,
