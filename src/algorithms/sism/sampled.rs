@@ -90,43 +90,57 @@ const GROUPS: usize = LIGHT_POINTS / 16;
 /// Rotations of the point set; a pixel's is chosen by hashing its index.
 const ROTATIONS: usize = 256;
 
-/// The light points in the unit disk, as `GROUPS` rows of 16 `x` and `y`.
+/// The light points in the unit disk, as `GROUPS` rows of 16 `x` and `y`, in order of angle: each
+/// group fills about a quarter of the disk, so rays cast to them in this order make compact vectors,
+/// and an edge whose region misses a group's quarter skips its 16 points.
 struct PointSet {
     x: [[f32; 16]; GROUPS],
     y: [[f32; 16]; GROUPS],
-    /// Largest radius of each group's points: the spiral's groups are rings (radii grow with the
-    /// index), and a ring entirely nearer the centre than an edge's line holds no point beyond it.
-    ring_max: [f32; GROUPS],
-    /// The points in order of angle: 16 consecutive ones fill a quarter of the disk, so rays cast to
-    /// them in this order make compact vectors (a ring of 16 would span the whole disk).
-    by_angle: [u8; LIGHT_POINTS],
+    /// Per group, the cone (apex at the centre, less than half a turn) holding its points: unit
+    /// boundary directions `b0`, then `b1` counterclockwise, `[b0x, b0y, b1x, b1y]`, opened by
+    /// [`CONE_SLACK`] radians on each side so that no point lies within rounding of its boundary.
+    cone: [[f32; 4]; GROUPS],
+    /// Per group, the largest radius of its points (with a relative slack of 1e-6).
+    radius: [f32; GROUPS],
 }
 
+/// Angle (radians) by which a group's cone is opened beyond its outermost points.
+const CONE_SLACK: f64 = 1e-4;
+
 /// Fibonacci spiral: point `k` at radius `√((k + ½) / N)` and angle `k · golden angle`, so each point
-/// stands for an equal share of the disk's area.
+/// stands for an equal share of the disk's area; then ordered by angle.
 fn point_set() -> PointSet {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut points: Vec<(f64, f32, f32)> = (0..LIGHT_POINTS)
+        .map(|k| {
+            let r = ((k as f64 + 0.5) / LIGHT_POINTS as f64).sqrt();
+            let a = k as f64 * golden;
+            let (x, y) = ((r * a.cos()) as f32, (r * a.sin()) as f32);
+            (f64::from(y).atan2(f64::from(x)), x, y)
+        })
+        .collect();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut set = PointSet {
         x: [[0.0; 16]; GROUPS],
         y: [[0.0; 16]; GROUPS],
-        ring_max: [0.0; GROUPS],
-        by_angle: [0; LIGHT_POINTS],
+        cone: [[0.0; 4]; GROUPS],
+        radius: [0.0; GROUPS],
     };
-    for k in 0..LIGHT_POINTS {
-        let r = ((k as f64 + 0.5) / LIGHT_POINTS as f64).sqrt();
-        let a = k as f64 * golden;
-        set.x[k / 16][k % 16] = (r * a.cos()) as f32;
-        set.y[k / 16][k % 16] = (r * a.sin()) as f32;
-        let g = &mut set.ring_max[k / 16];
-        *g = g.max((set.x[k / 16][k % 16].hypot(set.y[k / 16][k % 16])) * (1.0 + 1e-6));
+    for (k, &(_, x, y)) in points.iter().enumerate() {
+        set.x[k / 16][k % 16] = x;
+        set.y[k / 16][k % 16] = y;
+        let r = &mut set.radius[k / 16];
+        *r = r.max(x.hypot(y) * (1.0 + 1e-6));
     }
-    let mut order: Vec<usize> = (0..LIGHT_POINTS).collect();
-    order.sort_by(|&a, &b| {
-        let angle = |k: usize| set.y[k / 16][k % 16].atan2(set.x[k / 16][k % 16]);
-        angle(a).total_cmp(&angle(b))
-    });
-    for (slot, k) in set.by_angle.iter_mut().zip(order) {
-        *slot = k as u8;
+    for g in 0..GROUPS {
+        // Angles of the f32 points, so the cone holds the points the kernel tests.
+        let angle = |l: usize| f64::from(set.y[g][l]).atan2(f64::from(set.x[g][l]));
+        let (a0, a1) = (angle(0) - CONE_SLACK, angle(15) + CONE_SLACK);
+        assert!(
+            a1 - a0 < 0.9 * std::f64::consts::PI,
+            "a group's cone spans under half a turn"
+        );
+        set.cone[g] = [a0.cos() as f32, a0.sin() as f32, a1.cos() as f32, a1.sin() as f32];
     }
     set
 }
@@ -347,8 +361,7 @@ impl LightPointRays<'_> {
         );
         scratch.beam.reset(disk.origin);
         // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
-        for &k in &self.points.by_angle {
-            let o = scratch.offsets[k as usize];
+        for &o in &scratch.offsets {
             if let Some((dir, len)) = disk.ray(c + o * self.light.radius) {
                 scratch.beam.push(dir, len);
             }
@@ -676,18 +689,66 @@ fn add_edge_points<S: Simd>(
         let (gx, gy) = (dot3(s, gh, e1), dot3(s, gh, e2));
         let (fx, fy) = (dot3(s, fh, e1), dot3(s, fh, e2));
         let (d, lo, hi) = (f.dist, f.lo, f.hi);
-        // Coefficients of the three half-planes, per lane: beyond = (c0, c1, c2), after_lo = (c3, c4),
-        // before_hi = (c5, c6).
+        // Groups each lane's region can reach: its cone (from the centre through the clipped segment,
+        // `after_lo` and `before_hi`) meets the group's cone, and its line is nearer the centre than
+        // the group's farthest reach along the line's normal. Two cones under half a turn meet
+        // unless one's boundary normal has both of the other's boundary rays on its outer side (by a
+        // margin far above rounding, so only groups whose every point fails a test are skipped).
+        let (nlo, nhi) = (
+            [s.fnmadd(lo, fx, s.mul_f(d, gx)), s.fnmadd(lo, fy, s.mul_f(d, gy))],
+            [s.fnmadd(d, gx, s.mul_f(hi, fx)), s.fnmadd(d, gy, s.mul_f(hi, fy))],
+        );
+        let (elo, ehi) = (
+            [s.fmadd(lo, gx, s.mul_f(d, fx)), s.fmadd(lo, gy, s.mul_f(d, fy))],
+            [s.fmadd(hi, gx, s.mul_f(d, fx)), s.fmadd(hi, gy, s.mul_f(d, fy))],
+        );
+        let (tlo, thi, telo, tehi) = (
+            cone_margin(s, nlo),
+            cone_margin(s, nhi),
+            cone_margin(s, elo),
+            cone_margin(s, ehi),
+        );
+        let mut reach = [0u16; GROUPS];
+        for (g, reach) in reach.iter_mut().enumerate() {
+            let cone = &points.cone[g];
+            let (b0, b1) = (
+                [s.splat_f(cone[0]), s.splat_f(cone[1])],
+                [s.splat_f(cone[2]), s.splat_f(cone[3])],
+            );
+            // Inward normals of the group's cone: m0 = (-b0y, b0x), m1 = (b1y, -b1x).
+            let (m0, m1) = ([s.neg_f(b0[1]), b0[0]], [b1[1], s.neg_f(b1[0])]);
+            let apart = s.mask_or(
+                s.mask_or(
+                    both_below(s, dot2(s, nlo, b0), dot2(s, nlo, b1), tlo, tlo),
+                    both_below(s, dot2(s, nhi, b0), dot2(s, nhi, b1), thi, thi),
+                ),
+                s.mask_or(
+                    both_below(s, dot2(s, elo, m0), dot2(s, ehi, m0), telo, tehi),
+                    both_below(s, dot2(s, elo, m1), dot2(s, ehi, m1), telo, tehi),
+                ),
+            );
+            // Farthest reach of the group along the line's normal f̂ = (fx, fy): its radius when f̂
+            // is inside its cone, else the radius times the nearer boundary ray's cosine.
+            let fv = [fx, fy];
+            let f_inside = s.mask_and(
+                s.cmp_ge_f(dot2(s, fv, m0), zero),
+                s.cmp_ge_f(dot2(s, fv, m1), zero),
+            );
+            let along = s.max_f(s.max_f(dot2(s, fv, b0), dot2(s, fv, b1)), zero);
+            let radius = s.splat_f(points.radius[g]);
+            let far = s.select_f(f_inside, radius, s.mul_f(radius, along));
+            let short = s.cmp_lt_f(s.mul_f(far, s.splat_f(1.0 + 1e-5)), d);
+            *reach = s.mask_andn(s.mask_or(apart, short), active).bits();
+        }
         let coef: [[f32; 16]; 7] = [
             s.to_array_f(fx),
             s.to_array_f(fy),
             s.to_array_f(s.neg_f(d)),
-            s.to_array_f(s.fnmadd(lo, fx, s.mul_f(d, gx))),
-            s.to_array_f(s.fnmadd(lo, fy, s.mul_f(d, gy))),
-            s.to_array_f(s.fnmadd(d, gx, s.mul_f(hi, fx))),
-            s.to_array_f(s.fnmadd(d, gy, s.mul_f(hi, fy))),
+            s.to_array_f(nlo[0]),
+            s.to_array_f(nlo[1]),
+            s.to_array_f(nhi[0]),
+            s.to_array_f(nhi[1]),
         ];
-        let dist = s.to_array_f(d);
         let w = s.to_array_i(s.cvtr_f_i(weight));
         let at = s.to_array_i(idx);
         let mut lanes = active.bits();
@@ -706,9 +767,8 @@ fn add_edge_points<S: Simd>(
             let wv = s.splat_i(w[lane]);
             let row = at[lane] as usize * LIGHT_POINTS;
             s.scalar_ops(6);
-            for g in 0..GROUPS {
-                // (Slack of 1e-6 on the ring radius: rounding can never put a skipped point inside.)
-                if points.ring_max[g] < dist[lane] {
+            for (g, reach) in reach.iter().enumerate() {
+                if reach & (1 << lane) == 0 {
                     continue;
                 }
                 let px = s.load_f(&points.x[g]);
@@ -722,6 +782,25 @@ fn add_edge_points<S: Simd>(
             }
         }
     }
+}
+
+/// `a · b` of 2-vectors, lane-wise.
+#[inline(always)]
+fn dot2<S: Simd>(s: S, a: [S::F32; 2], b: [S::F32; 2]) -> S::F32 {
+    s.fmadd(a[0], b[0], s.mul_f(a[1], b[1]))
+}
+
+/// `-1e-5 (|v.x| + |v.y|)`: how far below zero `v · b` (`b` a unit vector) must be to count as
+/// outside, far beyond the rounding of either side's tests.
+#[inline(always)]
+fn cone_margin<S: Simd>(s: S, v: [S::F32; 2]) -> S::F32 {
+    s.mul_f(s.splat_f(-1e-5), s.add_f(s.abs_f(v[0]), s.abs_f(v[1])))
+}
+
+/// Lanes where `a < ta` and `b < tb`.
+#[inline(always)]
+fn both_below<S: Simd>(s: S, a: S::F32, b: S::F32, ta: S::F32, tb: S::F32) -> sism_simd::Mask16 {
+    s.mask_and(s.cmp_lt_f(a, ta), s.cmp_lt_f(b, tb))
 }
 
 /// The light points of the sample at `q` (relative to the light centre, world units) shading
