@@ -162,6 +162,10 @@ pub struct BenchRow {
     pub median_ms: f64,
     /// Error of the first repeat's image against the truth.
     pub error: ErrorReport,
+    /// The reference's time at this row's MAE, ms: interpolated on the reference rows of the same
+    /// run (log time against log MAE between the two spp settings that bracket it). `None` for the
+    /// reference itself, or when the MAE lies outside the reference's range (no extrapolation).
+    pub reference_ms_at_mae: Option<f64>,
 }
 
 /// Everything a bench run measured.
@@ -259,9 +263,14 @@ pub fn bench_scene(
             median_ms: median(&times_ms),
             times_ms,
             error,
+            reference_ms_at_mae: None,
         });
     }
     bar.finish_and_clear();
+    let curve = reference_curve(&rows);
+    for r in rows.iter_mut().filter(|r| r.algorithm != "reference") {
+        r.reference_ms_at_mae = time_at_error(&curve, r.error.mae);
+    }
     Ok(BenchReport {
         scene: scene.source.clone(),
         width,
@@ -273,6 +282,37 @@ pub fn bench_scene(
         timing: TIMING.into(),
         truth: truth_info,
         rows,
+    })
+}
+
+/// The reference rows' `(MAE, median ms)`, by falling MAE.
+fn reference_curve(rows: &[BenchRow]) -> Vec<(f64, f64)> {
+    let mut curve: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.algorithm == "reference")
+        .map(|r| (r.error.mae, r.median_ms))
+        .filter(|&(mae, ms)| mae.is_finite() && mae > 0.0 && ms.is_finite() && ms > 0.0)
+        .collect();
+    curve.sort_by(|a, b| b.0.total_cmp(&a.0));
+    curve
+}
+
+/// The time at which `curve` (`(MAE, ms)` by falling MAE) reaches `mae`: log-log interpolation
+/// between the two points that bracket it; `None` outside the curve's range or for `mae <= 0`.
+pub fn time_at_error(curve: &[(f64, f64)], mae: f64) -> Option<f64> {
+    if !(mae.is_finite() && mae > 0.0) {
+        return None;
+    }
+    curve.windows(2).find_map(|w| {
+        let ((e0, t0), (e1, t1)) = (w[0], w[1]);
+        if !(e1 <= mae && mae <= e0) {
+            return None;
+        }
+        if mae == e0 || mae == e1 {
+            return Some(if mae == e0 { t0 } else { t1 });
+        }
+        let f = (mae.ln() - e0.ln()) / (e1.ln() - e0.ln());
+        Some((t0.ln() + f * (t1.ln() - t0.ln())).exp())
     })
 }
 
@@ -298,8 +338,8 @@ fn median(values: &[f64]) -> f64 {
 }
 
 /// The columns of the table and of `bench.csv`.
-pub const CSV_HEADER: &str =
-    "algorithm,setting,median_ms,mae,rmse,p99,penumbra_mae,max,share_over_0_1,compared,penumbra_pixels";
+pub const CSV_HEADER: &str = "algorithm,setting,median_ms,mae,rmse,p99,penumbra_mae,max,share_over_0_1,\
+compared,penumbra_pixels,reference_ms_at_mae,reference_ratio";
 
 /// `bench.csv`: a header line, then one line per candidate.
 pub fn to_csv(report: &BenchReport) -> String {
@@ -307,8 +347,12 @@ pub fn to_csv(report: &BenchReport) -> String {
     s.push('\n');
     for r in &report.rows {
         let e = &r.error;
+        let (at, ratio) = match r.reference_ms_at_mae {
+            Some(t) => (format!("{t:.3}"), format!("{:.4}", t / r.median_ms)),
+            None => (String::new(), String::new()),
+        };
         s += &format!(
-            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{}\n",
+            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{at},{ratio}\n",
             r.algorithm,
             r.setting,
             r.median_ms,
@@ -328,6 +372,20 @@ pub fn to_csv(report: &BenchReport) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn time_at_error_interpolates_log_log_inside_the_curve_only() {
+        // MAE halves while time quadruples: MAE ∝ t^-1/2.
+        let curve = [(0.04, 10.0), (0.02, 40.0), (0.01, 160.0)];
+        let t = time_at_error(&curve, 0.02 / 2f64.sqrt()).unwrap();
+        assert!((t - 80.0).abs() < 1e-9, "{t}");
+        assert_eq!(time_at_error(&curve, 0.04), Some(10.0));
+        assert_eq!(time_at_error(&curve, 0.01), Some(160.0));
+        assert_eq!(time_at_error(&curve, 0.05), None);
+        assert_eq!(time_at_error(&curve, 0.005), None);
+        assert_eq!(time_at_error(&curve, 0.0), None);
+        assert_eq!(time_at_error(&curve, f64::NAN), None);
+    }
 
     #[test]
     fn median_of_odd_and_even() {

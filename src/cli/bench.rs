@@ -148,16 +148,31 @@ fn to_table(report: &BenchReport) -> String {
         report.repeats,
     );
     s += &format!(
-        "{:<18} {:>7} {:>12} {:>10} {:>10} {:>10} {:>13}\n",
-        "algorithm", "setting", "median ms", "MAE", "RMSE", "p99", "penumbra MAE"
+        "{:<18} {:>7} {:>12} {:>10} {:>10} {:>10} {:>13} {:>14} {:>9}\n",
+        "algorithm",
+        "setting",
+        "median ms",
+        "MAE",
+        "RMSE",
+        "p99",
+        "penumbra MAE",
+        "ref ms at MAE",
+        "ref ÷ it"
     );
     for r in &report.rows {
         let e = &r.error;
+        let (at, ratio) = match r.reference_ms_at_mae {
+            Some(t) => (format!("{t:.1}"), format!("{:.2}", t / r.median_ms)),
+            None if r.algorithm == "reference" => (String::new(), String::new()),
+            None => ("outside".into(), "-".into()),
+        };
         s += &format!(
-            "{:<18} {:>7} {:>12.2} {:>10.6} {:>10.6} {:>10.6} {:>13.6}\n",
-            r.algorithm, r.setting, r.median_ms, e.mae, e.rmse, e.p99, e.penumbra_mae
+            "{:<18} {:>7} {:>12.2} {:>10.6} {:>10.6} {:>10.6} {:>13.6} {:>14} {:>9}\n",
+            r.algorithm, r.setting, r.median_ms, e.mae, e.rmse, e.p99, e.penumbra_mae, at, ratio
         );
     }
+    s += "ref ms at MAE: the reference's time at the row's MAE, log-log interpolated between the spp \
+settings that bracket it (\"outside\": beyond the sweep; widen --spp-list)\n";
     s
 }
 
