@@ -430,6 +430,9 @@ mod tests {
                 ("rpcf-smsr", "-"),
                 ("rpcf-rsmss", "2"),
                 ("rpcf-rsmss", "4"),
+                ("light-samples", "4"),
+                ("light-samples", "8"),
+                ("light-samples", "17"),
             ]
         );
     }

@@ -355,6 +355,8 @@ pub mod task_kind {
     pub const SHADOW_LOOKUP: u32 = 0x702;
     /// Shadow-map family: a chunk of visibilities scattered to their pixels.
     pub const SHADOW_SCATTER: u32 = 0x703;
+    /// Multi-sample shadow maps: one light point's results added into the receivers' sums.
+    pub const MULTI_SAMPLE_ACCUMULATE: u32 = 0x704;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -384,6 +386,7 @@ pub mod task_kind {
         DEPTH_MAP_MIN,
         SHADOW_LOOKUP,
         SHADOW_SCATTER,
+        MULTI_SAMPLE_ACCUMULATE,
     ];
 }
 

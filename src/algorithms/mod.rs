@@ -7,6 +7,7 @@
 //! README's algorithm table all come from [`REGISTRY`], so a new algorithm is one module plus one
 //! registry line.
 
+pub mod multi_sample;
 pub mod params;
 pub mod pixels;
 pub mod rbsm;
@@ -145,6 +146,7 @@ pub static REGISTRY: &[&Algorithm] = &[
     &rbsm::RSMSS,
     &rbsm::RPCF_SMSR,
     &rbsm::RPCF_RSMSS,
+    &multi_sample::LIGHT_SAMPLES,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

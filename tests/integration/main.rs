@@ -6,6 +6,7 @@ mod closed_forms;
 mod convergence;
 mod golden;
 mod hardening;
+mod multi_sample;
 mod obj_loading;
 mod rbsm;
 mod registry;

@@ -48,13 +48,13 @@ crate::declare_stats! {
     }
 }
 
-const MAX_SEARCH: ParamSpec = ParamSpec {
+pub const MAX_SEARCH: ParamSpec = ParamSpec {
     key: "max_search",
     kind: ParamKind::Int { min: 1, max: 256 },
     default: "16",
     description: "steps of an ONDS walk (the paper's maximum edge length), texels",
 };
-const EPSILON: ParamSpec = ParamSpec {
+pub const EPSILON: ParamSpec = ParamSpec {
     key: "epsilon",
     kind: ParamKind::Float { min: 0.0, max: 0.01 },
     default: "2.5e-5",
@@ -207,16 +207,16 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
 
 /// What the lookup tasks report.
 #[derive(Default)]
-struct LookupOut {
-    fragments: u64,
-    differs_from_hard: u64,
+pub struct LookupOut {
+    pub fragments: u64,
+    pub differs_from_hard: u64,
     /// Steps of every flagged fragment.
-    steps: Vec<u32>,
+    pub steps: Vec<u32>,
 }
 
 /// Looks every sample (grouped by face) up in its face's map, as tasks of [`LOOKUP_CHUNK`] samples of
 /// step `lookup`; visibilities into `values` (sample order).
-fn lookups(
+pub fn lookups(
     phase: &mut Phase,
     maps: &LightMaps,
     samples: &[SampleIn],
