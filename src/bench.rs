@@ -433,6 +433,8 @@ mod tests {
                 ("light-samples", "4"),
                 ("light-samples", "8"),
                 ("light-samples", "17"),
+                ("rb-adaptive", "3"),
+                ("rb-adaptive", "4"),
             ]
         );
     }

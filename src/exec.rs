@@ -357,6 +357,8 @@ pub mod task_kind {
     pub const SHADOW_SCATTER: u32 = 0x703;
     /// Multi-sample shadow maps: one light point's results added into the receivers' sums.
     pub const MULTI_SAMPLE_ACCUMULATE: u32 = 0x704;
+    /// Adaptive multi-sample: per-sample codes, reprojection, evaluation and final passes.
+    pub const ADAPTIVE_PASS: u32 = 0x705;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -387,6 +389,7 @@ pub mod task_kind {
         SHADOW_LOOKUP,
         SHADOW_SCATTER,
         MULTI_SAMPLE_ACCUMULATE,
+        ADAPTIVE_PASS,
     ];
 }
 

@@ -147,6 +147,7 @@ pub static REGISTRY: &[&Algorithm] = &[
     &rbsm::RPCF_SMSR,
     &rbsm::RPCF_RSMSS,
     &multi_sample::LIGHT_SAMPLES,
+    &multi_sample::adaptive::RB_ADAPTIVE,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

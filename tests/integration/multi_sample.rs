@@ -82,3 +82,58 @@ fn one_point_is_the_shadow_map_and_counted_equals_native() {
             .any(|s| s.name.starts_with("machine.untimed")));
     }
 }
+
+/// With refinement forced everywhere, the adaptive method renders every lattice point once, all at
+/// level 4 with equal weights: the uniform mean of `light-samples` at 289 on the same points.
+#[test]
+fn forced_refinement_is_the_uniform_mean_over_the_lattice() {
+    let scene = load("plate.toml", 96, 72);
+    let common = [("map_size", "512"), ("bias_slope", "4"), ("visibility", "hard")];
+    let uniform = run(&scene, "light-samples", &common, Exec::Native);
+    let mut given = common.to_vec();
+    given.push(("force_refine", "yes"));
+    let forced = run(&scene, "rb-adaptive", &given, Exec::Native);
+    assert_eq!(forced.stats.get("adaptive.samples_used"), Some(289.0));
+    // Every node of levels 0..=3 evaluated and refined: 1 + 4 + 16 + 64.
+    for (level, nodes) in [(0, 1.0), (1, 4.0), (2, 16.0), (3, 64.0)] {
+        assert_eq!(
+            forced.stats.get(&format!("adaptive.nodes_refined.l{level}")),
+            Some(nodes)
+        );
+    }
+    let worst = uniform
+        .visibility
+        .values
+        .iter()
+        .zip(&forced.visibility.values)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-5, "largest difference {worst}");
+}
+
+/// The adaptive method uses fewer samples than the uniform 289 where penumbrae are narrow, stays
+/// close to the uniform mean's error, and runs the same counted as native.
+#[test]
+fn adaptive_sampling_saves_samples_and_counted_equals_native() {
+    let scene = load("plate.toml", 96, 72);
+    let truth = run(&scene, "reference", &[("spp", "1024")], Exec::Native).visibility;
+    let given = [("map_size", "512")];
+    let adaptive = run(&scene, "rb-adaptive", &given, Exec::Native);
+    let used = adaptive.stats.get("adaptive.samples_used").unwrap();
+    let uniform = run(&scene, "light-samples", &given, Exec::Native);
+    let (ea, eu) = (
+        compare(&truth, &adaptive.visibility).unwrap().mae,
+        compare(&truth, &uniform.visibility).unwrap().mae,
+    );
+    eprintln!("rb-adaptive: {used} samples, MAE {ea}; light-samples 289: MAE {eu}");
+    assert!((4.0..289.0).contains(&used), "{used}");
+    assert!(ea < 0.01, "{ea}");
+    let counted = run(&scene, "rb-adaptive", &given, Exec::Counting);
+    assert_eq!(bits(&adaptive.visibility), bits(&counted.visibility));
+    assert_eq!(counted.stats.get("adaptive.samples_used"), Some(used));
+    assert!(!counted
+        .stats
+        .stats
+        .iter()
+        .any(|s| s.name.starts_with("machine.untimed")));
+}

@@ -25,6 +25,10 @@ pub const MAX_PCSS_RADIUS: f32 = 128.0;
 pub enum Method {
     /// The hard test at the receiver's texel.
     Hard,
+    /// The hard test plus 2 where a 4-neighbour texel's test (same receiver depth) differs from it: the
+    /// screen-space discontinuity flag of the adaptive method (RBSM-VISIBILITY.md §1, basic rule).
+    /// Values 0–3.
+    HardAndDiscontinuity,
     /// The mean of the hard tests over an `n × n` box of texels centred on the receiver's (`n` odd).
     Pcf { n: u32 },
     /// Percentage-closer soft shadows (Fernando 2005), see [`super`].
@@ -233,6 +237,22 @@ impl Kernel for LookupTask<'_> {
                 Method::Hard => {
                     c.taps += lanes;
                     hard
+                }
+                Method::HardAndDiscontinuity => {
+                    c.taps += 5 * lanes;
+                    let mut differ = zero;
+                    for (dx, dy) in [(-1, 0), (1, 0), (0, 1), (0, -1)] {
+                        let t = lit(
+                            s,
+                            map,
+                            p.valid,
+                            s.add_i(ix, s.splat_i(dx)),
+                            s.add_i(iy, s.splat_i(dy)),
+                            p.d,
+                        );
+                        differ = s.add_f(differ, s.abs_f(s.sub_f(t, hard)));
+                    }
+                    s.add_f(hard, s.select_f(s.cmp_gt_f(differ, zero), s.splat_f(2.0), zero))
                 }
                 Method::Pcf { n } => {
                     let h = (*n / 2) as i32;

@@ -29,20 +29,27 @@
 //! surface, as the reference sees it). Then the mean is scattered to pixels. All of it kernels:
 //! `--machine` times every map.
 
+pub mod adaptive;
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
-use super::rbsm::visibility::{Function, Settings};
-use super::shadow_map::depth_map::{self, MapStats};
-use super::shadow_map::{self as sm, lookup::Method as HardMethod};
-use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::algorithms::rbsm::visibility::{Function, Settings};
+use crate::algorithms::shadow_map::depth_map::{self, MapStats};
+use crate::algorithms::shadow_map::{self as sm, lookup::Method as HardMethod};
 use crate::algorithms::sism::grid::SampleIn;
 use crate::algorithms::sism::light_samples;
+use crate::algorithms::{
+    AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource,
+};
 use crate::exec::{task_kind, FrameLog};
 use crate::frame::Receiver;
 use crate::sampling::concentric_disk;
 use crate::stats::StatsReport;
+
+/// Side of the adaptive method's lattice (level 4: 17 × 17 points).
+pub const LATTICE_SIDE: u32 = 17;
 
 /// Receivers per accumulate task.
 const ACCUMULATE_CHUNK: usize = 4096;
@@ -85,12 +92,12 @@ const PARAMS: [ParamSpec; 7] = [
     sm::MAP_PARAMS[2],
     SAMPLES_PER_SIDE,
     VISIBILITY,
-    super::rbsm::MAX_SEARCH,
-    super::rbsm::EPSILON,
+    crate::algorithms::rbsm::MAX_SEARCH,
+    crate::algorithms::rbsm::EPSILON,
 ];
 
 /// `light-samples`: the mean of hard tests from `N` light points.
-pub static LIGHT_SAMPLES: super::Algorithm = super::Algorithm {
+pub static LIGHT_SAMPLES: crate::algorithms::Algorithm = crate::algorithms::Algorithm {
     name: "light-samples",
     family: Family::ShadowMap,
     summary: "uniform multi-sample soft shadows: the mean of the hard tests (or v_RSMSS) of N = side² \
@@ -205,12 +212,12 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
                         );
                     }
                     PointTest::Rsmss(settings) => {
-                        super::rbsm::lookups(
+                        crate::algorithms::rbsm::lookups(
                             p,
                             &maps,
                             &samples.samples,
                             shift,
-                            super::rbsm::Method::Single(Function::Rsmss),
+                            crate::algorithms::rbsm::Method::Single(Function::Rsmss),
                             settings,
                             &mut values,
                         );
