@@ -435,6 +435,9 @@ mod tests {
                 ("light-samples", "17"),
                 ("rb-adaptive", "3"),
                 ("rb-adaptive", "4"),
+                ("gaussian-pcf", "-"),
+                ("gaussian-single", "-"),
+                ("gaussian-multi", "-"),
             ]
         );
     }

@@ -359,6 +359,8 @@ pub mod task_kind {
     pub const MULTI_SAMPLE_ACCUMULATE: u32 = 0x704;
     /// Adaptive multi-sample: per-sample codes, reprojection, evaluation and final passes.
     pub const ADAPTIVE_PASS: u32 = 0x705;
+    /// Contact-hardening: a band of rows of a screen-space pass.
+    pub const SCREEN_PASS: u32 = 0x706;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -390,6 +392,7 @@ pub mod task_kind {
         SHADOW_SCATTER,
         MULTI_SAMPLE_ACCUMULATE,
         ADAPTIVE_PASS,
+        SCREEN_PASS,
     ];
 }
 

@@ -7,6 +7,7 @@
 //! README's algorithm table all come from [`REGISTRY`], so a new algorithm is one module plus one
 //! registry line.
 
+pub mod gaussian;
 pub mod multi_sample;
 pub mod params;
 pub mod pixels;
@@ -148,6 +149,9 @@ pub static REGISTRY: &[&Algorithm] = &[
     &rbsm::RPCF_RSMSS,
     &multi_sample::LIGHT_SAMPLES,
     &multi_sample::adaptive::RB_ADAPTIVE,
+    &gaussian::GAUSSIAN_PCF,
+    &gaussian::GAUSSIAN_SINGLE,
+    &gaussian::GAUSSIAN_MULTI,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

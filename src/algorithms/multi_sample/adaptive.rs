@@ -350,6 +350,8 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
         "adaptive",
         "quadtree of light samples: maps, reprojection, evaluation, final weighted mean",
         |p| {
+            // No receiver: no kernel runs; timed as zero, not as untimed host work.
+            p.skip();
             frame.evaluate(p, (0, 0, LATTICE_SIDE - 1, 0));
             // Leaves' levels (the last leaf in depth-first order wins), then their unrendered corners.
             let leaves = std::mem::take(&mut frame.leaves);

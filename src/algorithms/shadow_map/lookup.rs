@@ -29,6 +29,10 @@ pub enum Method {
     /// screen-space discontinuity flag of the adaptive method (RBSM-VISIBILITY.md §1, basic rule).
     /// Values 0–3.
     HardAndDiscontinuity,
+    /// `-1` where the hard test lights the receiver, else the occluder distance: the receiver's view
+    /// depth minus the depth the map holds at its texel, world units, `>= 0` (0 where the texel lies
+    /// outside the map). The distance map of the contact-hardening methods.
+    OccluderDistance,
     /// The mean of the hard tests over an `n × n` box of texels centred on the receiver's (`n` odd).
     Pcf { n: u32 },
     /// Percentage-closer soft shadows (Fernando 2005), see [`super`].
@@ -237,6 +241,15 @@ impl Kernel for LookupTask<'_> {
                 Method::Hard => {
                     c.taps += lanes;
                     hard
+                }
+                Method::OccluderDistance => {
+                    c.taps += lanes;
+                    let (depth, _) = fetch(s, map, p.valid, ix, iy);
+                    let dist = s.mul_f(s.sub_f(p.d, depth), s.splat_f(map.range()));
+                    // Outside the map (depth −∞) or rounding: no usable distance.
+                    let ok = s.mask_and(s.cmp_ge_f(dist, zero), s.cmp_lt_f(dist, s.splat_f(f32::INFINITY)));
+                    let dist = s.select_f(ok, dist, zero);
+                    s.select_f(s.cmp_gt_f(hard, zero), s.splat_f(-1.0), dist)
                 }
                 Method::HardAndDiscontinuity => {
                     c.taps += 5 * lanes;
