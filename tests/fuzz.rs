@@ -417,6 +417,13 @@ fn scene_case(rng: &mut Rng, dir: &Path, c: &Corpus, t: &mut Tally) -> Result<()
             rng.pick(&["256", "256", "512"]).to_string(),
         ));
     }
+    // Few light samples keep the many-sample methods' cases as quick as the others'.
+    if algo.param("samples_per_side").is_some() {
+        given.push(("samples_per_side".to_string(), (1 + rng.below(3)).to_string()));
+    }
+    if algo.param("max_level").is_some() {
+        given.push(("max_level".to_string(), rng.below(3).to_string()));
+    }
     let params = algo.params(&given).map_err(|e| e.to_string())?;
     let counted = algo.kernels && rng.chance(6);
     let options = RenderOptions {
