@@ -189,8 +189,7 @@ pub fn multi_pass_taps(ks: u32, taps: usize) -> Vec<(i32, i32, f32)> {
     let points = sm::lookup::poisson_disk(64);
     let mut pts: Vec<glam::Vec2> = vec![glam::Vec2::ZERO];
     pts.extend(points.into_iter().filter(|p| *p != glam::Vec2::ZERO));
-    // Poisson points in the unit disk → the square [−1, 1]² (the paper's range) is the same set scaled
-    // by 1 here: they already lie inside it.
+    // The family's Poisson disk lies in the unit disk, so inside the paper's range [−1, 1]².
     let half = ks as f32 / 2.0;
     let sigma = ks as f32 / 3.0;
     let mut out: Vec<(i32, i32, f32)> = pts

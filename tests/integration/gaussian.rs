@@ -4,22 +4,14 @@
 use std::path::Path;
 
 use sism::exec::Exec;
-use sism::frame::VisibilityImage;
 use sism::scene::Scene;
 
-use crate::util::{assert_clean_failure, render_with as run, sism};
+use crate::util::{assert_clean_failure, image_bits as bits, render_with as run, repo_scene, sism};
 
 const VARIANTS: [&str; 3] = ["gaussian-pcf", "gaussian-single", "gaussian-multi"];
 
 fn plate(width: u32, height: u32) -> Scene {
-    let mut s = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plate.toml")).unwrap();
-    s.camera.width = width;
-    s.camera.height = height;
-    s
-}
-
-fn bits(v: &VisibilityImage) -> Vec<u32> {
-    v.values.iter().map(|x| x.to_bits()).collect()
+    repo_scene("plate.toml", width, height)
 }
 
 /// Without dilation a pixel the hard test lights is never darkened, and every receiver's value lies in

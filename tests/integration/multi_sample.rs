@@ -1,25 +1,10 @@
 //! `light-samples`: the uniform multi-sample baseline against the ray-traced reference, counted
 //! against native.
 
-use std::path::Path;
-
 use sism::exec::Exec;
-use sism::frame::VisibilityImage;
 use sism::metrics::compare;
-use sism::scene::Scene;
 
-use crate::util::render_with as run;
-
-fn load(name: &str, width: u32, height: u32) -> Scene {
-    let mut s = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)).unwrap();
-    s.camera.width = width;
-    s.camera.height = height;
-    s
-}
-
-fn bits(v: &VisibilityImage) -> Vec<u32> {
-    v.values.iter().map(|x| x.to_bits()).collect()
-}
+use crate::util::{image_bits as bits, render_with as run, repo_scene as load};
 
 /// On the plate the error falls as the lattice grows, and at the paper's 289 points it is within
 /// 0.01 MAE of a 1024-spp reference.

@@ -12,10 +12,7 @@ use sism::scene::Scene;
 use crate::util::{assert_clean_failure, render_with as run, sism};
 
 fn load(name: &str, width: u32, height: u32) -> Scene {
-    let mut s = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)).unwrap();
-    s.camera.width = width;
-    s.camera.height = height;
-    s
+    crate::util::repo_scene(name, width, height)
 }
 
 fn reference(scene: &Scene, spp: &str) -> VisibilityImage {

@@ -80,3 +80,17 @@ pub fn render_with(
         },
     )
 }
+
+/// The repository scene `scenes/NAME`, rendered at `width × height`.
+pub fn repo_scene(name: &str, width: u32, height: u32) -> sism::scene::Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let mut s = sism::scene::Scene::load(&path).unwrap();
+    s.camera.width = width;
+    s.camera.height = height;
+    s
+}
+
+/// An image's values as bits, for bit-for-bit comparisons.
+pub fn image_bits(v: &sism::frame::VisibilityImage) -> Vec<u32> {
+    v.values.iter().map(|x| x.to_bits()).collect()
+}

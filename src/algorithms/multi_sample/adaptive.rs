@@ -179,11 +179,7 @@ impl Frame<'_> {
         let scene = self.inputs.prepared.scene;
         let origin = self.points[k];
         let maps = depth_map::render_maps(p, scene, self.samples, origin, &self.map_params);
-        let m = maps.stats(self.map_params.size);
-        self.maps.faces += m.faces;
-        self.maps.faces_skipped += m.faces_skipped;
-        self.maps.texels_written += m.texels_written;
-        self.maps.texels_covered += m.texels_covered;
+        self.maps.add_maps(&maps.stats(self.map_params.size));
         let shift = self.samples.light.center - origin;
         let smp = &self.samples.samples;
         let n = smp.len();

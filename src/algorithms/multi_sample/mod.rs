@@ -195,11 +195,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
             let mut values = vec![0f32; n];
             for &origin in &points {
                 let maps = depth_map::render_maps(p, scene, &samples, origin, &map_params);
-                let m = maps.stats(map_params.size);
-                map_totals.faces += m.faces;
-                map_totals.faces_skipped += m.faces_skipped;
-                map_totals.texels_written += m.texels_written;
-                map_totals.texels_covered += m.texels_covered;
+                map_totals.add_maps(&maps.stats(map_params.size));
                 let shift = samples.light.center - origin;
                 match &test {
                     PointTest::Hard(method) => {

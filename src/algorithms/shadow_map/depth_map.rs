@@ -89,6 +89,16 @@ crate::declare_stats! {
     }
 }
 
+impl MapStats {
+    /// Adds another light point's map counters (faces and texels; `size` is left as it is).
+    pub fn add_maps(&mut self, m: &MapStats) {
+        self.faces += m.faces;
+        self.faces_skipped += m.faces_skipped;
+        self.texels_written += m.texels_written;
+        self.texels_covered += m.texels_covered;
+    }
+}
+
 impl LightMaps {
     /// The maps' counters; `size` the side they were rendered at.
     pub fn stats(&self, size: u32) -> MapStats {
