@@ -438,6 +438,12 @@ mod tests {
                 ("gaussian-pcf", "-"),
                 ("gaussian-single", "-"),
                 ("gaussian-multi", "-"),
+                ("ssmm-v2", "2"),
+                ("ssmm-v2", "4"),
+                ("ssmm-v2", "9"),
+                ("ssmm", "2"),
+                ("ssmm", "4"),
+                ("ssmm", "9"),
             ]
         );
     }

@@ -361,6 +361,10 @@ pub mod task_kind {
     pub const ADAPTIVE_PASS: u32 = 0x705;
     /// Contact-hardening: a band of rows of a screen-space pass.
     pub const SCREEN_PASS: u32 = 0x706;
+    /// Soft shadow mip-maps: rows of a level of the mip chain.
+    pub const SSMM_CHAIN: u32 = 0x707;
+    /// Soft shadow mip-maps: a face's receivers filtered over the chain's layers.
+    pub const SSMM_LOOKUP: u32 = 0x708;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -393,6 +397,8 @@ pub mod task_kind {
         MULTI_SAMPLE_ACCUMULATE,
         ADAPTIVE_PASS,
         SCREEN_PASS,
+        SSMM_CHAIN,
+        SSMM_LOOKUP,
     ];
 }
 

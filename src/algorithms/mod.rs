@@ -15,6 +15,7 @@ pub mod rbsm;
 pub mod reference;
 pub mod shadow_map;
 pub mod sism;
+pub mod ssmm;
 
 #[cfg(test)]
 mod constant;
@@ -152,6 +153,8 @@ pub static REGISTRY: &[&Algorithm] = &[
     &gaussian::GAUSSIAN_PCF,
     &gaussian::GAUSSIAN_SINGLE,
     &gaussian::GAUSSIAN_MULTI,
+    &ssmm::SSMM_V2,
+    &ssmm::SSMM,
     #[cfg(test)]
     &constant::CONSTANT,
 ];

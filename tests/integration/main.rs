@@ -14,4 +14,5 @@ mod registry;
 mod shadow_maps;
 mod shared_scenes;
 mod sism;
+mod ssmm;
 mod util;

@@ -9,7 +9,8 @@
 //!
 //! **Depth.** A texel holds the normalised linear depth `d = (z − z0) / (z1 − z0)` of the surface its
 //! centre sees (`z` the view depth along the axis, world units; `z0`, `z1` the nearest and farthest
-//! receiver depth of the face, so receivers lie in [0, 1] and nearer occluders below 0), 32-bit
+//! receiver depth of the face, so receivers lie in [0, 1] and nearer occluders below 0; the range
+//! is at least [`MIN_RANGE_SHARE`] of `z1`), 32-bit
 //! float, plus the bias of [`MapParams`] — a constant and a slope-scaled term, as a polygon offset
 //! adds them when a map is rendered. Texels that see nothing hold `+∞` (lit for any receiver).
 //! Reads outside the map are [`Lookup::Outside`]; each method says what they mean.
@@ -27,6 +28,10 @@ use crate::scene::{CameraFrame, Scene};
 /// Texels of margin around the receivers on every side of a face (at least a revectorization walk,
 /// 16 texels, plus the 4-neighbourhood, and half the largest PCF kernel, 33 texels).
 pub const PAD_TEXELS: u32 = 20;
+
+/// The smallest depth range a face's normalised depth spans, as a share of its farthest receiver's
+/// depth (see [`render_maps`]).
+pub const MIN_RANGE_SHARE: f32 = 0.1;
 
 /// Depth of a texel that sees nothing: lit whatever the receiver.
 pub const NOTHING: f32 = f32::INFINITY;
@@ -216,7 +221,11 @@ pub fn render_maps(
             } else {
                 (1.0, 2.0)
             };
-            let inv_range = 1.0 / (z1 - z0).max(z0 * 1e-6).max(f32::MIN_POSITIVE);
+            // A face whose receivers lie at nearly one depth (a floor seen straight down from the
+            // light) would make normalised depth so fine that the constant bias falls below the
+            // rasterizer's depth rounding (acne over the whole floor): the unit is never finer than
+            // MIN_RANGE_SHARE of the farthest receiver's depth.
+            let inv_range = 1.0 / (z1 - z0).max(z1 * MIN_RANGE_SHARE).max(f32::MIN_POSITIVE);
             let view = RasterView {
                 frame: CameraFrame {
                     eye: origin,

@@ -83,18 +83,24 @@ pub struct LookupTask<'a> {
 
 /// The map position and normalised depth of 16 receivers (lanes `m`), and the lanes in front of the
 /// light point.
-struct Projected<S: Simd> {
-    tx: S::F32,
-    ty: S::F32,
-    d: S::F32,
-    z: S::F32,
-    valid: Mask16,
+pub(crate) struct Projected<S: Simd> {
+    /// Continuous map position, texels.
+    pub tx: S::F32,
+    pub ty: S::F32,
+    /// Normalised depth.
+    pub d: S::F32,
+    /// Face coordinates of the receiver relative to the light point (world units); `z` is 1 on
+    /// lanes not `valid`.
+    pub x: S::F32,
+    pub y: S::F32,
+    pub z: S::F32,
+    pub valid: Mask16,
     /// The receiver's tangent plane in face coordinates: normal `(nx, ny, nz)`, and `n · p` of its
     /// position `p` (relative to the light point).
-    nx: S::F32,
-    ny: S::F32,
-    nz: S::F32,
-    np: S::F32,
+    pub nx: S::F32,
+    pub ny: S::F32,
+    pub nz: S::F32,
+    pub np: S::F32,
 }
 
 /// `a · (x, y, z)` for a broadcast `a`.
@@ -108,7 +114,7 @@ fn dot_splat<S: Simd>(s: S, a: Vec3, x: S::F32, y: S::F32, z: S::F32) -> S::F32 
 }
 
 #[inline(always)]
-fn project<S: Simd>(
+pub(crate) fn project<S: Simd>(
     s: S,
     map: &FaceMap,
     shift: Vec3,
@@ -162,6 +168,8 @@ fn project<S: Simd>(
         tx,
         ty,
         d,
+        x: fx,
+        y: fy,
         z: safe_z,
         valid,
         nx,

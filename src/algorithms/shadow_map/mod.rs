@@ -192,16 +192,26 @@ pub fn map_frame<T>(
     what: &'static str,
     lookup: impl FnOnce(&mut Phase, &LightMaps, &[SampleIn], glam::Vec3, &mut [f32]) -> T,
 ) -> (VisibilityImage, MapStats, T) {
+    map_frame_with(inputs, &map_params(params), log, what, lookup)
+}
+
+/// [`map_frame`] with the maps made as `map_params` says (for methods whose bias is their own).
+pub fn map_frame_with<T>(
+    inputs: &FrameInputs<'_>,
+    map_params: &MapParams,
+    log: &mut FrameLog,
+    what: &'static str,
+    lookup: impl FnOnce(&mut Phase, &LightMaps, &[SampleIn], glam::Vec3, &mut [f32]) -> T,
+) -> (VisibilityImage, MapStats, T) {
     let scene = inputs.prepared.scene;
     let samples = log.phase(
         "light_samples",
         "light view fitted to the receivers and their light-space samples",
         |p| light_samples::build(p, inputs.receivers, &scene.light),
     );
-    let map_params = map_params(params);
     let centre = scene.light.center();
     let maps = log.phase("depth_map", "light-view depth maps (binned rasterizer)", |p| {
-        depth_map::render_maps(p, scene, &samples, centre, &map_params)
+        depth_map::render_maps(p, scene, &samples, centre, map_params)
     });
     let mut visibility = samples.image;
     let counts = log.phase("lookup", what, |p| {
