@@ -29,6 +29,9 @@ const ALGORITHMS: &[&str] = &[
     "sism",
     "sism-independent",
     "sism-sampled",
+    "pcss",
+    "ssmm-v2",
+    "ssmm",
 ];
 
 /// Light-disk samples of the ray-traced algorithms in the golden renders (few: the check is bits).
