@@ -26,4 +26,5 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod stats;
+pub mod table2;
 pub mod vmath;

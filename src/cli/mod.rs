@@ -11,6 +11,7 @@ mod plot;
 mod render;
 mod replay;
 mod study;
+mod table2;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -51,6 +52,10 @@ enum Command {
     Bench(bench::Args),
     /// List the registered algorithms with their parameters (--markdown: the README's table).
     Algorithms(algorithms::Args),
+    /// The SISM paper's Table 2: per workload (default scenes/table2) a frame timed on the modelled
+    /// chip, phases grouped as the paper does (data structures, hard and soft shadow kernels), shares
+    /// and frame rate beside the published numbers; writes table2.csv and table2.md.
+    Table2(table2::Args),
 }
 
 /// Runs the command line; the process's exit code.
@@ -75,6 +80,7 @@ pub fn main() -> ExitCode {
         Command::Compare(a) => compare::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Algorithms(a) => algorithms::run(a),
+        Command::Table2(a) => table2::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,3 +16,4 @@ mod shared_scenes;
 mod sism;
 mod ssmm;
 mod util;
+mod workloads;
