@@ -5,8 +5,8 @@
 //! **Groups.** The paper reports "data structure construction", "hard shadow kernel" and "soft shadow
 //! kernel", as shares of a total that excludes eye-view colour, depth and shading (its shares do not
 //! reach 100% because of the light-view rasterization it leaves out). Here, from the simulated phases
-//! of a `sism` frame: data structures = `light_samples` + `grid`; hard = `umbra`; soft = `silhouettes`
-//! + `penumbra`; other = `resolve` (Eq. 4 and the scatter) and any further phase; the eye pass (eye-view
+//! of a `sism` frame: data structures = `light_samples` and `grid`; hard = `umbra`; soft =
+//! `silhouettes` and `penumbra`; other = `resolve` (Eq. 4 and the scatter) and any further phase; the eye pass (eye-view
 //! depth: receivers) is reported apart and left out of the shadow total, as the paper leaves it out.
 //! So eye + data structures + hard + soft + other = the simulated frame, exactly the phases' sum (tested),
 //! and shares and frame rate are of the shadow total.
