@@ -166,6 +166,77 @@ pub struct BenchRow {
     /// run (log time against log MAE between the two spp settings that bracket it). `None` for the
     /// reference itself, or when the MAE lies outside the reference's range (no extrapolation).
     pub reference_ms_at_mae: Option<f64>,
+    /// One counted frame timed on the modelled chip (`bench --machine`), ms; `None` when not asked,
+    /// when the algorithm does not run on the simd kernels, or when its native frame exceeds the
+    /// simulation budget (a counted frame holds every freed block, so the largest would not fit).
+    pub sim_ms: Option<f64>,
+    /// On the time–error Pareto front of the run: no other row is at most as slow and at most as
+    /// wrong (median ms, MAE) and better in one.
+    pub pareto: bool,
+}
+
+/// Marks the rows on the Pareto front of (median ms, MAE): a row is on it when no other row has
+/// both a time and an MAE at most its own, one of them smaller. Rows with a non-finite time or
+/// MAE are never on it.
+pub fn mark_pareto(rows: &mut [BenchRow]) {
+    let key: Vec<(f64, f64)> = rows.iter().map(|r| (r.median_ms, r.error.mae)).collect();
+    for (i, r) in rows.iter_mut().enumerate() {
+        let (t, e) = key[i];
+        r.pareto = t.is_finite()
+            && e.is_finite()
+            && !key.iter().enumerate().any(|(j, &(tj, ej))| {
+                j != i && tj.is_finite() && ej.is_finite() && tj <= t && ej <= e && (tj < t || ej < e)
+            });
+    }
+}
+
+/// Times one counted frame of each candidate that runs on the simd kernels on `config`, into the
+/// rows' `sim_ms`, skipping candidates whose native median exceeds `budget_ms`.
+pub fn simulate_rows(
+    scene: &Scene,
+    candidates: &[Candidate],
+    rows: &mut [BenchRow],
+    config: &crate::machine::MachineConfig,
+    budget_ms: f64,
+    progress: bool,
+) {
+    let bar = crate::progress::bar(candidates.len() as u64, "simulate", progress);
+    for (c, r) in candidates.iter().zip(rows.iter_mut()) {
+        bar.set_message(format!("{} {}", c.algorithm.name, c.setting));
+        if c.algorithm.kernels && r.median_ms <= budget_ms {
+            let m = render::render_on_machine(scene, c.algorithm, &c.params, config, false);
+            r.sim_ms = Some(m.report.frame.ms);
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+}
+
+/// The Pareto table (Markdown): every row by rising median time, the front marked.
+pub fn pareto_markdown(report: &BenchReport) -> String {
+    let mut rows: Vec<&BenchRow> = report.rows.iter().collect();
+    rows.sort_by(|a, b| a.median_ms.total_cmp(&b.median_ms));
+    let mut s = String::from(
+        "| front | algorithm | setting | family | native ms | sim ms | MAE | p99 | penumbra MAE | share > 0.1 |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let e = &r.error;
+        s += &format!(
+            "| {} | `{}` | {} | {} | {:.1} | {} | {:.4} | {:.3} | {:.3} | {:.4} |\n",
+            if r.pareto { "**yes**" } else { "" },
+            r.algorithm,
+            r.setting,
+            r.family,
+            r.median_ms,
+            r.sim_ms.map_or("–".to_string(), |t| format!("{t:.1}")),
+            e.mae,
+            e.p99,
+            e.penumbra_mae,
+            e.share_over_0_1
+        );
+    }
+    s
 }
 
 /// Everything a bench run measured.
@@ -264,6 +335,8 @@ pub fn bench_scene(
             times_ms,
             error,
             reference_ms_at_mae: None,
+            sim_ms: None,
+            pareto: false,
         });
     }
     bar.finish_and_clear();
@@ -271,6 +344,7 @@ pub fn bench_scene(
     for r in rows.iter_mut().filter(|r| r.algorithm != "reference") {
         r.reference_ms_at_mae = time_at_error(&curve, r.error.mae);
     }
+    mark_pareto(&mut rows);
     Ok(BenchReport {
         scene: scene.source.clone(),
         width,
@@ -339,7 +413,7 @@ fn median(values: &[f64]) -> f64 {
 
 /// The columns of the table and of `bench.csv`.
 pub const CSV_HEADER: &str = "algorithm,setting,median_ms,mae,rmse,p99,penumbra_mae,max,share_over_0_1,\
-compared,penumbra_pixels,reference_ms_at_mae,reference_ratio";
+compared,penumbra_pixels,reference_ms_at_mae,reference_ratio,sim_ms,pareto";
 
 /// `bench.csv`: a header line, then one line per candidate.
 pub fn to_csv(report: &BenchReport) -> String {
@@ -352,7 +426,7 @@ pub fn to_csv(report: &BenchReport) -> String {
             None => (String::new(), String::new()),
         };
         s += &format!(
-            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{at},{ratio}\n",
+            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{at},{ratio},{},{}\n",
             r.algorithm,
             r.setting,
             r.median_ms,
@@ -363,7 +437,9 @@ pub fn to_csv(report: &BenchReport) -> String {
             e.max,
             e.share_over_0_1,
             e.compared,
-            e.penumbra_pixels
+            e.penumbra_pixels,
+            r.sim_ms.map_or(String::new(), |t| format!("{t:.3}")),
+            r.pareto
         );
     }
     s
@@ -385,6 +461,37 @@ mod tests {
         assert_eq!(time_at_error(&curve, 0.005), None);
         assert_eq!(time_at_error(&curve, 0.0), None);
         assert_eq!(time_at_error(&curve, f64::NAN), None);
+    }
+
+    #[test]
+    fn pareto_front_keeps_rows_no_other_beats_on_both() {
+        let row = |ms: f64, mae: f64| BenchRow {
+            algorithm: "a".into(),
+            family: "f".into(),
+            setting: String::new(),
+            label: String::new(),
+            params: String::new(),
+            times_ms: vec![ms],
+            median_ms: ms,
+            error: ErrorReport {
+                mae,
+                ..Default::default()
+            },
+            reference_ms_at_mae: None,
+            sim_ms: None,
+            pareto: false,
+        };
+        let mut rows = vec![
+            row(10.0, 0.05),
+            row(20.0, 0.01),
+            row(20.0, 0.02), // slower than nothing faster, but (20, 0.01) beats it
+            row(5.0, 0.1),
+            row(30.0, 0.01), // (20, 0.01) is as good and faster
+            row(f64::NAN, 0.0),
+        ];
+        mark_pareto(&mut rows);
+        let front: Vec<bool> = rows.iter().map(|r| r.pareto).collect();
+        assert_eq!(front, [true, true, false, true, false, false]);
     }
 
     #[test]

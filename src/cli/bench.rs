@@ -36,6 +36,14 @@ pub struct Args {
     /// Timed runs per configuration; the median is reported.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
+    /// Also time one counted frame of every candidate on the simd kernels on this modelled chip (a
+    /// preset such as larrabee-24, or a machine TOML): the `sim_ms` column.
+    #[arg(long)]
+    machine: Option<String>,
+    /// With --machine: skip the counted frame of candidates whose native median exceeds this, ms (a
+    /// counted frame keeps every freed block; the largest many-map frames do not fit in memory).
+    #[arg(long, default_value_t = 3000.0)]
+    sim_budget_ms: f64,
     /// No progress bars.
     #[arg(long)]
     quiet: bool,
@@ -113,8 +121,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             (result.visibility, info)
         }
     };
-    let report = bench::bench_scene(&scene, &candidates, &truth, truth_info, a.repeats, progress)?;
+    let config = a
+        .machine
+        .as_deref()
+        .map(sism::machine::MachineConfig::resolve)
+        .transpose()
+        .context("--machine")?;
+    let mut report = bench::bench_scene(&scene, &candidates, &truth, truth_info, a.repeats, progress)?;
+    if let Some(config) = &config {
+        bench::simulate_rows(
+            &scene,
+            &candidates,
+            &mut report.rows,
+            config,
+            a.sim_budget_ms,
+            progress,
+        );
+    }
     write_file(&out.join("bench.csv"), &bench::to_csv(&report))?;
+    write_file(&out.join("pareto.md"), &bench::pareto_markdown(&report))?;
     write_file(
         &out.join("bench.json"),
         &(serde_json::to_string_pretty(&report)? + "\n"),
@@ -265,15 +290,30 @@ fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
                     .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
                     .map_err(|e| err(&e))?;
             }
-            chart
-                .draw_series(points.iter().map(|&p| Circle::new(p, 6, colour.filled())))
-                .map_err(|e| err(&e))?
-                .label(name.to_string())
-                .legend(move |(x, y)| {
-                    EmptyElement::at((x, y))
-                        + PathElement::new(vec![(-10, 0), (10, 0)], colour.stroke_width(2))
-                        + Circle::new((0, 0), 5, colour.filled())
-                });
+            // One marker shape per family.
+            let family = rows.first().map_or("", |r| r.family.as_str());
+            let shape = FAMILY_MARKERS.iter().position(|f| *f == family).unwrap_or(0);
+            let label = format!("{name} ({family})");
+            // The same series call per shape: plotters' markers are distinct types.
+            macro_rules! markers {
+                ($make:expr) => {
+                    chart
+                        .draw_series(points.iter().map(|&p| $make(p)))
+                        .map_err(|e| err(&e))?
+                        .label(label)
+                        .legend(move |(x, y)| {
+                            EmptyElement::at((x, y))
+                                + PathElement::new(vec![(-10, 0), (10, 0)], colour.stroke_width(2))
+                                + $make((0, 0))
+                        })
+                };
+            }
+            match shape {
+                0 => markers!(|p| Circle::new(p, 6, colour.filled())),
+                1 => markers!(|p| TriangleMarker::new(p, 8, colour.filled())),
+                2 => markers!(|p| Circle::new(p, 6, colour.stroke_width(3))),
+                _ => markers!(|p| Cross::new(p, 6, colour.stroke_width(3))),
+            };
             chart
                 .draw_series(
                     rows.iter()
@@ -286,11 +326,31 @@ fn write_plot(path: &Path, report: &BenchReport) -> anyhow::Result<()> {
                 )
                 .map_err(|e| err(&e))?;
         }
+        // The time–error front: a staircase through its rows by rising time.
+        let mut front: Vec<(f64, f64)> = report.rows.iter().filter(|r| r.pareto).map(at).collect();
+        front.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut stairs = Vec::new();
+        for (k, &p) in front.iter().enumerate() {
+            if k > 0 {
+                stairs.push((p.0, front[k - 1].1));
+            }
+            stairs.push(p);
+        }
+        if stairs.len() > 1 {
+            chart
+                .draw_series(DashedLineSeries::new(stairs, 8, 5, BLACK.stroke_width(2)))
+                .map_err(|e| err(&e))?
+                .label("time-error front")
+                .legend(|(x, y)| PathElement::new(vec![(x - 10, y), (x + 10, y)], BLACK.stroke_width(2)));
+        }
         plot::legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
     plot::save(path, rgb)
 }
+
+/// Families in marker order: filled circle, triangle, open circle, then a cross.
+const FAMILY_MARKERS: [&str; 4] = ["ray-traced", "sism", "shadow-map", "test"];
 
 /// A log axis over `lo..hi` with labelled grid lines at 1, 2 and 5 times powers of ten (every
 /// integer multiple when the range holds fewer than three of those) and light lines at the other

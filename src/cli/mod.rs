@@ -48,7 +48,9 @@ enum Command {
     Compare(compare::Args),
     /// Time against error: a high-spp truth, then every registered algorithm (the reference's spp
     /// sweep included), each timed (median of --repeats) and scored against the truth; writes
-    /// bench.csv, bench.json, bench.png.
+    /// bench.csv, bench.json, bench.png (the time-error front drawn) and pareto.md; `--machine`
+    /// adds one simulated frame per candidate. Also called `compare-all`.
+    #[command(alias = "compare-all")]
     Bench(bench::Args),
     /// List the registered algorithms with their parameters (--markdown: the README's table).
     Algorithms(algorithms::Args),
