@@ -27,4 +27,5 @@ pub mod sampling;
 pub mod scene;
 pub mod stats;
 pub mod table2;
+pub mod trace;
 pub mod vmath;

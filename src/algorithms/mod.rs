@@ -204,6 +204,12 @@ pub struct PreparedScene<'s> {
     bvh: OnceLock<(SceneBvh, Duration)>,
 }
 
+/// A [`PreparedScene`]'s per-scene data without its scene.
+pub struct SceneCache {
+    topology: OnceLock<(SceneTopology, Duration)>,
+    bvh: OnceLock<(SceneBvh, Duration)>,
+}
+
 impl<'s> PreparedScene<'s> {
     /// Nothing built yet.
     pub fn new(scene: &'s Scene) -> PreparedScene<'s> {
@@ -234,6 +240,29 @@ impl<'s> PreparedScene<'s> {
                 (SceneBvh::build(self.scene), t.elapsed())
             })
             .0
+    }
+
+    /// The per-scene data built so far, detached from the scene (to hand to the next frame of the
+    /// same geometry: [`PreparedScene::with_cache`]).
+    pub fn into_cache(self) -> SceneCache {
+        SceneCache {
+            topology: self.topology,
+            bvh: self.bvh,
+        }
+    }
+
+    /// `scene` with the per-scene data of `cache`, kept only when `scene`'s meshes equal those it was
+    /// built from (`geometry_of`; camera and light may differ: neither data depends on them).
+    pub fn with_cache(scene: &'s Scene, cache: SceneCache, geometry_of: &Scene) -> PreparedScene<'s> {
+        if scene.meshes == geometry_of.meshes {
+            PreparedScene {
+                scene,
+                topology: cache.topology,
+                bvh: cache.bvh,
+            }
+        } else {
+            PreparedScene::new(scene)
+        }
     }
 
     /// Host time of the topology build, if it was built.

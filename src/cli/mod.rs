@@ -12,6 +12,7 @@ mod render;
 mod replay;
 mod study;
 mod table2;
+mod trace;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -58,6 +59,10 @@ enum Command {
     /// chip, phases grouped as the paper does (data structures, hard and soft shadow kernels), shares
     /// and frame rate beside the published numbers; writes table2.csv and table2.md.
     Table2(table2::Args),
+    /// Frame traces: `trace make orbit|walk|light-sweep SCENE` writes one; `trace run TRACE` renders
+    /// every frame (natively or with --machine), with per-frame CSV, error and flicker against a
+    /// reference run, and a plot.
+    Trace(trace::Args),
 }
 
 /// Runs the command line; the process's exit code.
@@ -83,6 +88,7 @@ pub fn main() -> ExitCode {
         Command::Bench(a) => bench::run(a),
         Command::Algorithms(a) => algorithms::run(a),
         Command::Table2(a) => table2::run(a),
+        Command::Trace(a) => trace::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -90,3 +90,76 @@ fn table2_prints_the_paper_beside_the_measured_rows() {
     assert!(csv.lines().nth(1).unwrap().ends_with(",6.4,3.6,55,15"), "{csv}");
     assert_eq!(table2::PAPER.len(), 4);
 }
+
+/// A trace of identical frames has zero flicker for every deterministic algorithm (all of them: the
+/// ray tracers' jitter is a function of seed and pixel), and `trace run` writes its files.
+#[test]
+fn identical_frames_have_zero_flicker() {
+    use sism::trace;
+    let scene = repo_scene("plate.toml", 32, 24);
+    let text = "sism-trace 1\nscene plate.toml\nframe\nframe\nframe\n";
+    let t = trace::parse(
+        text,
+        std::path::Path::new("same.trace"),
+        &trace::initial_frame(&scene),
+    )
+    .unwrap();
+    assert_eq!(t.frames.len(), 3);
+    for algo in sism::algorithms::REGISTRY {
+        let params = algo.params(&[]).unwrap();
+        let frames: Vec<_> = t
+            .frames
+            .iter()
+            .map(|f| {
+                let s = trace::apply(&scene, f).unwrap();
+                sism::render::render(&s, algo, &params, &Default::default()).visibility
+            })
+            .collect();
+        for k in 1..frames.len() {
+            let mut v = trace::flicker_values(&frames[k - 1], &frames[k], Some((&frames[0], &frames[0])));
+            assert!(!v.is_empty(), "{}", algo.name);
+            assert_eq!(trace::summarize(&mut v), (0.0, 0.0), "{} frame {k}", algo.name);
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plate.toml"),
+        dir.path().join("plate.toml"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("same.trace"), text).unwrap();
+    let out = sism(
+        dir.path(),
+        &[
+            "trace",
+            "run",
+            "same.trace",
+            "--algo",
+            "pcss",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--quiet",
+            "--out",
+            "o",
+        ],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("o/frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4);
+    let summary = std::fs::read_to_string(dir.path().join("o/summary.txt")).unwrap();
+    assert!(summary.contains("flicker_mean 0.000000"), "{summary}");
+    assert!(dir.path().join("o/frames.png").is_file() && dir.path().join("o/frame_0002.pfm").is_file());
+    // A bad trace names its line.
+    std::fs::write(
+        dir.path().join("bad.trace"),
+        "sism-trace 1\nscene plate.toml\nframe\nlight 0 0 0 x\n",
+    )
+    .unwrap();
+    let out = sism(
+        dir.path(),
+        &["trace", "run", "bad.trace", "--quiet", "--out", "b"],
+    );
+    crate::util::assert_clean_failure(&out, &["bad.trace:4", "`x` is not a number"]);
+}
