@@ -205,15 +205,12 @@ fn run_trace(a: RunArgs) -> anyhow::Result<()> {
             None => PreparedScene::new(&scene),
         };
         let result = render::render_prepared(&prepared, algo, &params, &options);
-        let sim_ms = match &config {
-            Some(c) => Some(
-                render::render_on_machine(&scene, algo, &params, c, false)
-                    .report
-                    .frame
-                    .ms,
-            ),
-            None => None,
-        };
+        let sim_ms = config.as_ref().map(|c| {
+            render::render_on_machine(&scene, algo, &params, c, false)
+                .report
+                .frame
+                .ms
+        });
         cache = Some((prepared.into_cache(), scene.clone()));
         let v = result.visibility;
         pfm::write_pfm(&out.join(format!("frame_{k:04}.pfm")), &v)
