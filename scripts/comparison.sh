@@ -31,4 +31,31 @@ for scene in palm japanese-maple stanford-bunny lost-empire; do
     cat "$OUT/$scene/pareto.md"
   } >> docs/COMPARISON.md
 done
+# Temporal stability: flicker of every method on the shipped sphere traces against the reference.
+{
+  echo
+  echo "## Flicker (temporal stability)"
+  echo
+  echo "Per pixel |dV - dV_ref| between consecutive frames (mean / p99 over pixels and frames), 8 frames at"
+  echo "200x150 against the reference at 256 spp; MAE is the frames' mean. The 64-spp reference's row is the"
+  echo "noise floor of the measure."
+  echo
+  echo "| trace | \`--algo\` | flicker mean | flicker p99 | MAE |"
+  echo "|---|---|---|---|---|"
+} >> docs/COMPARISON.md
+for tr in sphere-light-sweep sphere-orbit; do
+  T="$OUT/traces/$tr"
+  target/release/sism trace run "traces/$tr.trace" --algo reference --spp 256 --width 200 --height 150 --quiet --out "$T/ref"
+  for a in reference sism sism-sampled shadow-map pcf pcss rsmss rpcf-rsmss light-samples rb-adaptive gaussian-pcf gaussian-multi ssmm-v2 ssmm; do
+    extra=()
+    [ "$a" = reference ] && extra=(--spp 64)
+    [ "$a" = light-samples ] && extra=(--param samples_per_side=8)
+    target/release/sism trace run "traces/$tr.trace" --algo "$a" "${extra[@]}" --width 200 --height 150 --quiet \
+      --reference "$T/ref" --out "$T/$a"
+    mean=$(awk '$1=="flicker_mean"{print $2}' "$T/$a/summary.txt")
+    p99=$(awk '$1=="flicker_p99"{print $2}' "$T/$a/summary.txt")
+    mae=$(awk -F, 'NR>1{s+=$5;n++}END{printf "%.4f", s/n}' "$T/$a/frames.csv")
+    echo "| $tr | \`$a\` ${extra[*]} | $mean | $p99 | $mae |" >> docs/COMPARISON.md
+  done
+done
 echo "wrote docs/COMPARISON.md"
