@@ -240,7 +240,7 @@ impl Kernel for SsmmTask<'_> {
             // every layer sees the same filter size and the hats keep their partition of unity.
             let inv_dist = s.div_f(one, dist);
             // The nearest surface any finer region can hold (inverse distance).
-            let mut bound = s.splat_f(chain.levels.first().map_or(0.0, |_| chain.inv_max));
+            let mut bound = s.splat_f(chain.inv_max);
             let mut done = s.mask_not(valid);
             // ssmm-v2: the mean blocker's filter size over layer 0's (x_0); lanes with no blocker lit.
             let mut v2_ratio = zero;
@@ -370,16 +370,20 @@ mod tests {
     use crate::algorithms::sism::light_view::LightFace;
     use crate::exec::{Exec, FrameLog};
 
-    /// A face looking down −y from the origin, 64 texels a side over `[−1, 1]²`, depths 1–5 world
-    /// units: rectangles of random depths (the nearest wins) over nothing.
-    fn synthetic_map(seed: u64) -> FaceMap {
-        let mut state = seed;
-        let mut next = move || {
+    /// Uniform numbers in [0, 1) from a 64-bit LCG seeded with `seed`.
+    fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    /// A face looking down −y from the origin, 64 texels a side over `[−1, 1]²`, depths 1–5 world
+    /// units: rectangles of random depths (the nearest wins) over nothing.
+    fn synthetic_map(seed: u64) -> FaceMap {
+        let mut next = uniform(seed);
         let size = 64usize;
         let mut depth = vec![f32::INFINITY; size * size];
         for _ in 0..12 {
@@ -508,13 +512,7 @@ mod tests {
         for seed in 1..4u64 {
             let map = synthetic_map(seed);
             let mut log = FrameLog::new(Exec::Native);
-            let mut rng = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            let mut next = move || {
-                rng = rng
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (rng >> 40) as f32 / (1u64 << 24) as f32
-            };
+            let mut next = uniform(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15));
             // Receivers 3.5–5 below the light, within the map, normals tilted up to ~60°.
             let mut receivers = Vec::new();
             let mut samples = Vec::new();
