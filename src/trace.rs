@@ -258,66 +258,54 @@ pub fn apply(base: &Scene, f: &TraceFrame) -> Result<Scene, String> {
     Ok(s)
 }
 
+/// `frames` frames (at least 1) from `scene`'s own view, frame `k` being `step(first, share)` where
+/// `share(x)` is `x · k / (frames − 1)`: the part of a total `x` done by frame `k`.
+fn sweep(
+    scene_file: &Path,
+    scene: &Scene,
+    frames: usize,
+    step: impl Fn(&TraceFrame, &dyn Fn(f32) -> f32) -> TraceFrame,
+) -> Trace {
+    let f0 = initial_frame(scene);
+    let last = frames.max(2).saturating_sub(1) as f32;
+    Trace {
+        scene: scene_file.to_path_buf(),
+        frames: (0..frames.max(1))
+            .map(|k| step(&f0, &|x| x * k as f32 / last))
+            .collect(),
+    }
+}
+
 /// A camera orbit: `frames` frames turning the eye about the vertical axis through the look-at
 /// point by `degrees` in all.
 pub fn orbit(scene_file: &Path, scene: &Scene, frames: usize, degrees: f32) -> Trace {
-    let f0 = initial_frame(scene);
-    let arm = f0.eye - f0.look_at;
-    let frames = (0..frames.max(1))
-        .map(|k| {
-            let a = (degrees * k as f32 / frames.max(2).saturating_sub(1) as f32).to_radians();
-            let r = glam::Quat::from_rotation_y(a) * arm;
-            TraceFrame {
-                eye: f0.look_at + r,
-                ..f0.clone()
-            }
-        })
-        .collect();
-    Trace {
-        scene: scene_file.to_path_buf(),
-        frames,
-    }
+    sweep(scene_file, scene, frames, |f0, share| TraceFrame {
+        eye: f0.look_at + glam::Quat::from_rotation_y(share(degrees).to_radians()) * (f0.eye - f0.look_at),
+        ..f0.clone()
+    })
 }
 
 /// A walk-through: `frames` frames moving the eye and its look-at point together along the view
 /// direction by `share` of the eye's distance to the look-at point in all.
 pub fn walk(scene_file: &Path, scene: &Scene, frames: usize, share: f32) -> Trace {
-    let f0 = initial_frame(scene);
-    let step = (f0.look_at - f0.eye) * share;
-    let frames = (0..frames.max(1))
-        .map(|k| {
-            let t = step * (k as f32 / frames.max(2).saturating_sub(1) as f32);
-            TraceFrame {
-                eye: f0.eye + t,
-                look_at: f0.look_at + t,
-                ..f0.clone()
-            }
-        })
-        .collect();
-    Trace {
-        scene: scene_file.to_path_buf(),
-        frames,
-    }
+    sweep(scene_file, scene, frames, |f0, done| {
+        let moved = (f0.look_at - f0.eye) * share * done(1.0);
+        TraceFrame {
+            eye: f0.eye + moved,
+            look_at: f0.look_at + moved,
+            ..f0.clone()
+        }
+    })
 }
 
 /// A light sweep: `frames` frames turning the light's centre about the vertical axis through the
 /// camera's look-at point by `degrees` in all.
 pub fn light_sweep(scene_file: &Path, scene: &Scene, frames: usize, degrees: f32) -> Trace {
-    let f0 = initial_frame(scene);
-    let arm = f0.light_center - f0.look_at;
-    let frames = (0..frames.max(1))
-        .map(|k| {
-            let a = (degrees * k as f32 / frames.max(2).saturating_sub(1) as f32).to_radians();
-            TraceFrame {
-                light_center: f0.look_at + glam::Quat::from_rotation_y(a) * arm,
-                ..f0.clone()
-            }
-        })
-        .collect();
-    Trace {
-        scene: scene_file.to_path_buf(),
-        frames,
-    }
+    sweep(scene_file, scene, frames, |f0, share| TraceFrame {
+        light_center: f0.look_at
+            + glam::Quat::from_rotation_y(share(degrees).to_radians()) * (f0.light_center - f0.look_at),
+        ..f0.clone()
+    })
 }
 
 /// Flicker between two consecutive frames, per pixel `|(V_t − V_{t−1}) − (R_t − R_{t−1})|` over the
