@@ -240,22 +240,35 @@ pub fn write(trace: &Trace) -> String {
 /// index the scene does not have.
 pub fn apply(base: &Scene, f: &TraceFrame) -> Result<Scene, String> {
     let mut s = base.clone();
-    s.camera.eye = f.eye.to_array();
-    s.camera.look_at = f.look_at.to_array();
-    s.camera.fov_y_deg = f.fov_y_deg;
-    s.light.center = f.light_center.to_array();
-    s.light.radius = f.light_radius;
-    for &(i, t) in &f.mesh_moves {
-        let m = s
-            .meshes
-            .get_mut(i)
-            .ok_or_else(|| format!("mesh {i}: the scene has {} meshes", base.meshes.len()))?;
-        m.positions.iter_mut().for_each(|p| *p += t);
+    apply_to(&mut s, base, f, true)?;
+    Ok(s)
+}
+
+/// Sets `scene` (a copy of `base`) to frame `f`: its camera and light always; its meshes, as `base`'s
+/// translated by the frame's moves, only when `geometry` is set (the moves differ from the frame
+/// `scene` last showed), so a frame that moves no mesh copies no geometry.
+pub fn apply_to(scene: &mut Scene, base: &Scene, f: &TraceFrame, geometry: bool) -> Result<(), String> {
+    scene.camera.eye = f.eye.to_array();
+    scene.camera.look_at = f.look_at.to_array();
+    scene.camera.fov_y_deg = f.fov_y_deg;
+    scene.light.center = f.light_center.to_array();
+    scene.light.radius = f.light_radius;
+    if geometry {
+        for (m, b) in scene.meshes.iter_mut().zip(&base.meshes) {
+            m.positions.copy_from_slice(&b.positions);
+        }
+        for &(i, t) in &f.mesh_moves {
+            let m = scene
+                .meshes
+                .get_mut(i)
+                .ok_or_else(|| format!("mesh {i}: the scene has {} meshes", base.meshes.len()))?;
+            m.positions.iter_mut().for_each(|p| *p += t);
+        }
     }
-    if let Err((key, msg)) = s.camera.validate() {
+    if let Err((key, msg)) = scene.camera.validate() {
         return Err(format!("{key} {msg}"));
     }
-    Ok(s)
+    Ok(())
 }
 
 /// `frames` frames (at least 1) from `scene`'s own view, frame `k` being `step(first, share)` where

@@ -251,17 +251,13 @@ impl<'s> PreparedScene<'s> {
         }
     }
 
-    /// `scene` with the per-scene data of `cache`, kept only when `scene`'s meshes equal those it was
-    /// built from (`geometry_of`; camera and light may differ: neither data depends on them).
-    pub fn with_cache(scene: &'s Scene, cache: SceneCache, geometry_of: &Scene) -> PreparedScene<'s> {
-        if scene.meshes == geometry_of.meshes {
-            PreparedScene {
-                scene,
-                topology: cache.topology,
-                bvh: cache.bvh,
-            }
-        } else {
-            PreparedScene::new(scene)
+    /// `scene` with the per-scene data of `cache`, which must have been built from the same meshes
+    /// (camera and light may differ: neither datum depends on them).
+    pub fn with_cache(scene: &'s Scene, cache: SceneCache) -> PreparedScene<'s> {
+        PreparedScene {
+            scene,
+            topology: cache.topology,
+            bvh: cache.bvh,
         }
     }
 

@@ -193,16 +193,21 @@ fn run_trace(a: RunArgs) -> anyhow::Result<()> {
         Option<sism::frame::VisibilityImage>,
         Option<sism::frame::VisibilityImage>,
     ) = (None, None);
-    let mut cache: Option<(sism::algorithms::SceneCache, Scene)> = None;
+    // One scene for the whole trace, set to each frame in turn; the per-scene data (adjacency, BVH)
+    // carries over while no mesh moves differently from the frame before.
+    let mut scene = base.clone();
+    let mut cache: Option<sism::algorithms::SceneCache> = None;
+    let mut shown_moves: Option<&[(usize, glam::Vec3)]> = None;
     let mut host = Vec::new();
     let mut flicker_per_frame = Vec::new();
     for (k, f) in t.frames.iter().enumerate() {
-        let scene =
-            trace::apply(&base, f).map_err(|e| anyhow::anyhow!("{} frame {k}: {e}", a.trace.display()))?;
-        // Per-scene data (adjacency, BVH) carries over while the geometry does.
+        let same_geometry = shown_moves == Some(&f.mesh_moves[..]);
+        trace::apply_to(&mut scene, &base, f, !same_geometry)
+            .map_err(|e| anyhow::anyhow!("{} frame {k}: {e}", a.trace.display()))?;
+        shown_moves = Some(&f.mesh_moves);
         let prepared = match cache.take() {
-            Some((c, geometry)) => PreparedScene::with_cache(&scene, c, &geometry),
-            None => PreparedScene::new(&scene),
+            Some(c) if same_geometry => PreparedScene::with_cache(&scene, c),
+            _ => PreparedScene::new(&scene),
         };
         let result = render::render_prepared(&prepared, algo, &params, &options);
         let sim_ms = config.as_ref().map(|c| {
@@ -211,7 +216,7 @@ fn run_trace(a: RunArgs) -> anyhow::Result<()> {
                 .frame
                 .ms
         });
-        cache = Some((prepared.into_cache(), scene.clone()));
+        cache = Some(prepared.into_cache());
         let v = result.visibility;
         pfm::write_pfm(&out.join(format!("frame_{k:04}.pfm")), &v)
             .with_context(|| format!("cannot write a frame into {}", out.display()))?;

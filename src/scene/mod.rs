@@ -35,7 +35,7 @@ pub const FOV_RANGE_DEG: (f32, f32) = (1e-3, 179.999);
 
 /// One triangle mesh with shared vertices (shared so edge adjacency, and with it silhouettes, can be
 /// found later). Positions are in world units after the mesh's transform.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Name for messages and statistics (the OBJ file stem or the shape's kind).
     pub name: String,
