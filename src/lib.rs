@@ -5,7 +5,7 @@
 //! Layers, bottom up (a module uses only those above it in this list):
 //! `stats`, `exec`, `vmath` (with the `sism-simd` crate) → `scene`, `frame`, `sampling`, `bvh` →
 //! `raster` → `algorithms` (the registry, the reference, SISM) → `machine` (records → time; it uses
-//! only `exec`'s records and `stats`) → `render`, `bench`, `metrics`, `output`. The command line
+//! only `exec`'s records and `stats`) → `render`, `bench`, `metrics`, `output`, `validate` (the model against the host). The command line
 //! lives in the binary (`src/cli/`); nothing here names a flag.
 
 #![deny(unsafe_op_in_unsafe_fn)]
@@ -28,4 +28,5 @@ pub mod scene;
 pub mod stats;
 pub mod table2;
 pub mod trace;
+pub mod validate;
 pub mod vmath;

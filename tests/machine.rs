@@ -529,3 +529,67 @@ fn bad_machine_toml_names_the_key() {
     let e = format!("{:#}", MachineConfig::resolve("no-such-machine").unwrap_err());
     assert!(e.contains("larrabee-24"), "{e}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// The host model, decoding once, calibration files
+
+/// Lines decoded once give the same report as decoding per replay, on Larrabee and on the host
+/// model (shared L3, separate ports, memory parallelism, task overhead), and `sweep::run` (which
+/// decodes once) equals one `simulate` per configuration.
+#[test]
+fn decoded_once_replays_equal_streaming_replays() {
+    let scene = load("plate.toml", 96, 72);
+    let records = counted_records(&scene);
+    let decoded = sism::machine::decode(&records);
+    let host = MachineConfig::preset("host").unwrap();
+    let mut small_l3 = host.clone();
+    small_l3.l3_kb = 64;
+    small_l3.l3_ways = 4;
+    let configs = [machine(24, 4), machine(3, 1), host.clone(), small_l3];
+    for m in &configs {
+        let a = simulate(&records, m);
+        let b = sism::machine::simulate_decoded(&records, &decoded, m);
+        assert_eq!(a, b, "{}", m.name);
+    }
+    let points = sism::machine::sweep::run(&records, &configs, || {});
+    for (p, m) in points.iter().zip(&configs) {
+        assert_eq!(p.report, simulate(&records, m), "{}", m.name);
+    }
+    // The host model's shared cache is used: an L2 miss can hit it.
+    let r = simulate(&records, &configs[3]);
+    assert!(r.frame.memory.l2_misses > 0);
+}
+
+/// A machine file written by `to_toml` (every field) reads back equal, for the host preset too, and
+/// the new fields keep Larrabee's meaning when a file leaves them out.
+#[test]
+fn host_preset_round_trips_through_toml() {
+    let host = MachineConfig::preset("host").unwrap();
+    let back = MachineConfig::from_toml(&host.to_toml(), "x").unwrap();
+    assert_eq!(
+        back,
+        MachineConfig {
+            name: "host".into(),
+            ..back.clone()
+        }
+    );
+    assert_eq!(
+        MachineConfig {
+            name: host.name.clone(),
+            ..back
+        },
+        host
+    );
+    let old = MachineConfig::from_toml("cores = 8", "old").unwrap();
+    assert_eq!(old.vector_cycles, 1.0);
+    assert!(!old.separate_ports && old.l3_kb == 0 && old.memory_parallelism == 1.0);
+    for (text, key) in [
+        ("vector_cycles = 0.0", "vector_cycles"),
+        ("memory_parallelism = 0.5", "memory_parallelism"),
+        ("l3_kb = 100", "l3_kb"),
+        ("separate_ports = 3", "separate_ports"),
+    ] {
+        let e = MachineConfig::from_toml(text, "t").unwrap_err();
+        assert!(e.contains(&format!("`{key}`")), "{text}: {e}");
+    }
+}

@@ -6,6 +6,7 @@
 
 mod algorithms;
 mod bench;
+mod calibrate;
 mod compare;
 mod plot;
 mod render;
@@ -13,6 +14,7 @@ mod replay;
 mod study;
 mod table2;
 mod trace;
+mod validate;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -63,6 +65,15 @@ enum Command {
     /// every frame (natively or with --machine), with per-frame CSV, error and flicker against a
     /// reference run, and a plot.
     Trace(trace::Args),
+    /// Fit the `host` machine preset's per-class costs to microbenchmarks run on this CPU (arithmetic,
+    /// gathers and scatters, atomics, streaming loads per cache level, task start and join); writes
+    /// the fitted machine file (TOML) with the evidence as comments.
+    Calibrate(calibrate::Args),
+    /// The machine model against the host: each scene rendered natively (1 and all host threads) and
+    /// counted, its records replayed on the host's model (`--machine`, e.g. from `sism calibrate`);
+    /// predicted against measured ms per phase and frame; writes validate.csv, validate.md and
+    /// validate.png.
+    Validate(validate::Args),
 }
 
 /// Runs the command line; the process's exit code.
@@ -89,6 +100,8 @@ pub fn main() -> ExitCode {
         Command::Algorithms(a) => algorithms::run(a),
         Command::Table2(a) => table2::run(a),
         Command::Trace(a) => trace::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
+        Command::Validate(a) => validate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

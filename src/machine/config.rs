@@ -17,8 +17,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-/// Names of the presets, in order.
+/// Names of the presets, in order (`host` is built at run time from the CPU sism runs on: see
+/// [`super::host`]).
 pub const PRESETS: &[&str] = &[
+    "host",
     "larrabee-8",
     "larrabee-16",
     "larrabee-24",
@@ -48,8 +50,11 @@ pub const LIMITS: &[(&str, u64, u64)] = &[
     ("atomic_cycles", 1, 10_000),
     ("atomic_conflict_cycles", 0, 10_000),
     ("barrier_cycles", 0, 10_000_000),
-    ("gather_cycles_per_line", 1, 10_000),
+    ("gather_cycles_per_line", 0, 10_000),
     ("transcendental_cycles", 1, 10_000),
+    ("l3_kb", 0, 1_048_576),
+    ("l3_ways", 1, 64),
+    ("l3_latency", 0, 10_000),
 ];
 
 /// Ranges of the real fields (inclusive): `clock_ghz` GHz, `dram_latency_ns` ns, `dram_bandwidth_gbs`
@@ -58,6 +63,13 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("clock_ghz", 0.001, 50.0),
     ("dram_latency_ns", 0.0, 100_000.0),
     ("dram_bandwidth_gbs", 0.01, 1_000_000.0),
+    ("vector_cycles", 0.01, 10_000.0),
+    ("load_store_cycles", 0.01, 10_000.0),
+    ("compress_cycles", 0.01, 10_000.0),
+    ("scalar_cycles", 0.01, 10_000.0),
+    ("gather_cycles", 0.01, 10_000.0),
+    ("memory_parallelism", 1.0, 64.0),
+    ("task_overhead_cycles", 0.0, 10_000_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -125,12 +137,67 @@ pub struct MachineConfig {
     /// Issue cost of one transcendental (div, sqrt, rcp, rsqrt) vector instruction, cycles.
     /// Assumption: 4 (an unpipelined multi-cycle op on the VPU).
     pub transcendental_cycles: u32,
+    /// Issue cycles one vector ALU or FMA instruction takes before the division by
+    /// `vector_issue_per_clock` (0.01–10000). Larrabee: 1. The `host` preset sets what the host's
+    /// backend takes for one 16-lane operation (AVX-512 about 0.5–1, the portable backend several).
+    #[serde(default = "one")]
+    pub vector_cycles: f64,
+    /// Issue cycles of one contiguous vector load or store (0.01–10000), before the division by
+    /// `vector_issue_per_clock`; cache misses are charged apart. Larrabee: 1.
+    #[serde(default = "one")]
+    pub load_store_cycles: f64,
+    /// Issue cycles of one compress or expand (0.01–10000), before the division by
+    /// `vector_issue_per_clock`. Larrabee: 1. Hosts' compress-stores are microcoded (several).
+    #[serde(default = "one")]
+    pub compress_cycles: f64,
+    /// Issue cycles of one scalar or mask instruction before the division by
+    /// `scalar_issue_per_clock` (0.01–10000). Larrabee: 1.
+    #[serde(default = "one")]
+    pub scalar_cycles: f64,
+    /// Least cost of one gather or scatter instruction, cycles, whatever lines it touches
+    /// (0.01–10000; the per-line cost is `gather_cycles_per_line`). Larrabee: 1. Host gathers cost
+    /// about a cycle per lane, not per line.
+    #[serde(default = "one")]
+    pub gather_cycles: f64,
+    /// True for an out-of-order host core, whose vector ALUs, load/store ports and integer ALUs
+    /// work in parallel: a task's issue cycles are the largest of its vector ALU, load/store and
+    /// scalar cycles. False for Larrabee's dual issue: the largest of its vector cycles (loads and
+    /// stores included: they issue in the vector pipe) and its scalar cycles.
+    #[serde(default)]
+    pub separate_ports: bool,
+    /// Cache misses one hardware thread keeps in flight (1–64): a task's memory stall is divided by
+    /// it before the other threads hide what they can. Larrabee's in-order cores: 1. Out-of-order
+    /// hosts with prefetchers overlap many.
+    #[serde(default = "one")]
+    pub memory_parallelism: f64,
+    /// Cost of starting one task on a core, cycles (0–1e7): the host's work-stealing scheduler.
+    /// Larrabee: 0 (its software scheduler's cost is inside the kernels' scalar counts).
+    #[serde(default)]
+    pub task_overhead_cycles: f64,
+    /// A last-level cache shared by all cores, KB (0 = none, as on Larrabee, whose L2 subsets are the
+    /// last level). An L2 miss looks it up before going to DRAM.
+    #[serde(default)]
+    pub l3_kb: u32,
+    /// Shared-cache associativity, ways (used when `l3_kb` > 0).
+    #[serde(default = "sixteen")]
+    pub l3_ways: u32,
+    /// Latency of an L2 miss that hits the shared cache, cycles (used when `l3_kb` > 0).
+    #[serde(default)]
+    pub l3_latency: u32,
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn sixteen() -> u32 {
+    16
 }
 
 impl MachineConfig {
     /// A preset by name (`larrabee-8/16/24/32/48/64`).
     pub fn preset(name: &str) -> Option<MachineConfig> {
         let cores = match name {
+            "host" => return Some(super::host::host_preset()),
             "larrabee-8" => 8,
             "larrabee-16" => 16,
             "larrabee-24" => 24,
@@ -172,6 +239,17 @@ impl MachineConfig {
             barrier_cycles: 2000,
             gather_cycles_per_line: 1,
             transcendental_cycles: 4,
+            vector_cycles: 1.0,
+            load_store_cycles: 1.0,
+            compress_cycles: 1.0,
+            scalar_cycles: 1.0,
+            gather_cycles: 1.0,
+            separate_ports: false,
+            memory_parallelism: 1.0,
+            task_overhead_cycles: 0.0,
+            l3_kb: 0,
+            l3_ways: 16,
+            l3_latency: 0,
         }
     }
 
@@ -289,11 +367,19 @@ impl MachineConfig {
                 ),
             ));
         }
-        for (key, kb, ways) in [("l1", self.l1_kb, self.l1_ways), ("l2", self.l2_kb, self.l2_ways)] {
+        let l3 = (self.l3_kb > 0).then_some(("l3", self.l3_kb, self.l3_ways));
+        for (key, kb, ways) in [("l1", self.l1_kb, self.l1_ways), ("l2", self.l2_kb, self.l2_ways)]
+            .into_iter()
+            .chain(l3)
+        {
             let lines = kb as u64 * 1024 / self.line_bytes as u64;
             if !lines.is_multiple_of(ways as u64) || !(lines / ways as u64).is_power_of_two() {
                 return Err((
-                    if key == "l1" { "l1_kb" } else { "l2_kb" },
+                    match key {
+                        "l1" => "l1_kb",
+                        "l2" => "l2_kb",
+                        _ => "l3_kb",
+                    },
                     format!(
                         "= {kb} with {ways} ways gives {} sets: the sets must be a power of two",
                         lines as f64 / ways as f64
@@ -301,7 +387,8 @@ impl MachineConfig {
                 ));
             }
         }
-        let cache_bytes = self.cores as u64 * (self.l1_kb as u64 + self.l2_kb as u64) * 1024;
+        let cache_bytes =
+            self.cores as u64 * (self.l1_kb as u64 + self.l2_kb as u64) * 1024 + self.l3_kb as u64 * 1024;
         if cache_bytes > MAX_CACHE_BYTES {
             return Err((
                 "l2_kb",
@@ -339,6 +426,9 @@ impl MachineConfig {
             "barrier_cycles" => self.barrier_cycles,
             "gather_cycles_per_line" => self.gather_cycles_per_line,
             "transcendental_cycles" => self.transcendental_cycles,
+            "l3_kb" => self.l3_kb,
+            "l3_ways" => self.l3_ways,
+            "l3_latency" => self.l3_latency,
             _ => unreachable!("not an integer field: {key}"),
         }) as u64
     }
@@ -349,6 +439,13 @@ impl MachineConfig {
             "clock_ghz" => self.clock_ghz,
             "dram_latency_ns" => self.dram_latency_ns,
             "dram_bandwidth_gbs" => self.dram_bandwidth_gbs,
+            "vector_cycles" => self.vector_cycles,
+            "load_store_cycles" => self.load_store_cycles,
+            "compress_cycles" => self.compress_cycles,
+            "scalar_cycles" => self.scalar_cycles,
+            "gather_cycles" => self.gather_cycles,
+            "memory_parallelism" => self.memory_parallelism,
+            "task_overhead_cycles" => self.task_overhead_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

@@ -10,7 +10,9 @@
 //! many machines.
 
 pub mod cache;
+pub mod calibrate;
 pub mod config;
+pub mod host;
 pub mod records;
 pub mod sweep;
 pub mod timing;
@@ -39,9 +41,32 @@ pub struct MachineReport {
 /// Times the frame whose records are `records` on `config`. Deterministic: a function of the records
 /// (line addresses enter only through their first-touch order) and the configuration.
 pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineReport {
-    let named: Vec<(&str, &[sism_simd::TaskRecord])> =
-        records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect();
-    let phases = timing::simulate_frame(config, &named);
+    let named = named(records);
+    report(config, timing::simulate_frame(config, &named))
+}
+
+/// [`simulate`] from the records' lines decoded once ([`decode`]): for re-timing one frame on many
+/// machines (`study`), the same report without decoding the line streams for every machine.
+pub fn simulate_decoded(
+    records: &[PhaseRecords],
+    lines: &timing::DecodedLines,
+    config: &MachineConfig,
+) -> MachineReport {
+    let named = named(records);
+    report(config, timing::simulate_decoded(config, &named, lines))
+}
+
+/// The records' line streams decoded into first-touch ids once (4 host bytes per line access).
+pub fn decode(records: &[PhaseRecords]) -> timing::DecodedLines {
+    timing::DecodedLines::decode(&named(records))
+}
+
+fn named(records: &[PhaseRecords]) -> Vec<(&str, &[sism_simd::TaskRecord])> {
+    records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect()
+}
+
+/// The frame's report from its steps' reports: steps grouped into phases, the frame's totals.
+fn report(config: &MachineConfig, phases: Vec<PhaseReport>) -> MachineReport {
     let mut groups: Vec<PhaseReport> = Vec::new();
     for p in &phases {
         let g = group_of(&p.phase);

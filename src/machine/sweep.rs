@@ -52,13 +52,24 @@ pub fn configurations(base: &MachineConfig, axes: &SweepAxes) -> Result<Vec<Mach
     Ok(out)
 }
 
+/// Line accesses up to which [`run`] decodes the records once and shares the ids between the
+/// configurations (4 bytes each: 2 GiB at this bound); past it every configuration decodes the
+/// streams itself, as a single replay does.
+pub const MAX_DECODED_LINES: u64 = 1 << 29;
+
 /// Times `records` on every configuration (in parallel on the host; each replay is deterministic),
-/// calling `done` after each. Points come back in the configurations' order.
+/// calling `done` after each. The line streams are decoded once for all configurations (up to
+/// [`MAX_DECODED_LINES`]). Points come back in the configurations' order.
 pub fn run(records: &[PhaseRecords], configs: &[MachineConfig], done: impl Fn() + Sync) -> Vec<SweepPoint> {
+    let lines: u64 = records.iter().flat_map(|p| &p.tasks).map(|t| t.lines.len()).sum();
+    let decoded = (configs.len() > 1 && lines <= MAX_DECODED_LINES).then(|| super::decode(records));
     configs
         .par_iter()
         .map(|m| {
-            let report = simulate(records, m);
+            let report = match &decoded {
+                Some(d) => super::simulate_decoded(records, d, m),
+                None => simulate(records, m),
+            };
             done();
             SweepPoint {
                 cores: m.cores,

@@ -13,13 +13,22 @@
 //!   store and compress/expand instruction 1 slot (divided by the vector issue rate), each
 //!   transcendental `transcendental_cycles`, each gather or scatter `gather_cycles_per_line` per
 //!   distinct line it touched (at least 1). Scalar cycles: scalar and mask-register instructions.
+//!   Per class the slot is scaled by a real cost (`vector_cycles`, `load_store_cycles`,
+//!   `compress_cycles`, `scalar_cycles`, all 1 on Larrabee), and a gather or scatter costs at least
+//!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores,
+//!   and scalar work issue on their own ports: `max(vector ALU, load/store, scalar)`.
+//! * **Host scheduling**: each task costs `task_overhead_cycles` to start (0 on Larrabee), counted
+//!   with the atomics as synchronisation.
 //! * **Atomics**: each vector fetch-add costs `atomic_cycles`, plus `atomic_conflict_cycles` per
 //!   conflicting lane. They are charged to the "atomics and sync" part of the stack.
 //! * **Memory**: the task's recorded line stream is replayed through the core's L1 (private) and L2
 //!   (its local subset), write-allocate and write-back. An L1 hit costs `l1_latency`, an L1 miss that
 //!   hits L2 `l2_latency`, an L2 miss `MachineConfig::dram_miss_cycles` (L2 + ring hops to a memory
 //!   controller + line transfer + DRAM latency). Remote L2 subsets and coherence are not modelled:
-//!   a line another core holds is fetched from DRAM.
+//!   a line another core holds is fetched from DRAM. With `l3_kb > 0` (a host's last-level cache)
+//!   an L2 miss looks up one cache shared by all cores first (`l3_latency` on a hit; a miss adds
+//!   it to the DRAM latency); L2 write-backs are absorbed by it, and its own dirty evictions go to
+//!   DRAM. `memory_parallelism` (misses a thread overlaps, 1 on Larrabee) divides a task's stall.
 //! * **Hardware threads hide latency**: with `T` threads per core each running tasks like this one,
 //!   a task of `B` busy cycles (issue + atomics) and `S` stall cycles takes `max(B, (B + S) / T)`
 //!   of the core's time (the others issue while it waits), i.e. the exposed stall is
@@ -86,9 +95,11 @@ pub struct MemoryCounts {
     pub accesses: u64,
     /// L1 misses (L2 lookups).
     pub l1_misses: u64,
-    /// L2 misses (DRAM fills over the ring).
+    /// L2 misses (shared-cache lookups, or DRAM fills over the ring without a shared cache).
     pub l2_misses: u64,
-    /// Dirty lines evicted from L2 (written back to DRAM).
+    /// L2 misses that hit the shared last-level cache (0 without one).
+    pub l3_hits: u64,
+    /// Dirty lines evicted from the last level (L2, or the shared cache) and written back to DRAM.
     pub writebacks: u64,
 }
 
@@ -97,6 +108,7 @@ impl MemoryCounts {
         self.accesses += o.accesses;
         self.l1_misses += o.l1_misses;
         self.l2_misses += o.l2_misses;
+        self.l3_hits += o.l3_hits;
         self.writebacks += o.writebacks;
     }
     /// L1 misses per access (0 with no access).
@@ -113,7 +125,7 @@ impl MemoryCounts {
     }
     /// Bytes moved between DRAM and L2 over the ring (fills and write-backs).
     pub fn dram_bytes(&self, line: u32) -> u64 {
-        (self.l2_misses + self.writebacks) * line as u64
+        (self.l2_misses - self.l3_hits + self.writebacks) * line as u64
     }
 }
 
@@ -149,29 +161,36 @@ impl TaskCost {
 
 /// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
 /// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
-/// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping.
+/// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping. The real-valued
+/// per-class costs (`vector_cycles`, `load_store_cycles`, `compress_cycles`, `scalar_cycles`,
+/// `gather_cycles`) are summed in `f64` and
+/// rounded up once; with Larrabee's costs of 1 every term is an exact integer, so the result is the
+/// integer formula's.
 pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
-    let plain = c
-        .valu
-        .saturating_add(c.fma)
-        .saturating_add(c.load)
-        .saturating_add(c.store)
-        .saturating_add(c.compress_expand);
+    let alu = c.valu.saturating_add(c.fma) as f64 * m.vector_cycles;
+    let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
+    let compress = c.compress_expand as f64 * m.compress_cycles;
     let gs_lines =
         (c.gather_lines.saturating_add(c.scatter_lines)).saturating_mul(m.gather_cycles_per_line as u64);
-    let vector = plain
-        .div_ceil(m.vector_issue_per_clock as u64)
-        .saturating_add(c.transcendental.saturating_mul(m.transcendental_cycles as u64))
-        .saturating_add(gs_lines.max(c.gather.saturating_add(c.scatter)));
-    let scalar = c
-        .scalar
-        .saturating_add(c.mask)
-        .div_ceil(m.scalar_issue_per_clock as u64);
+    let gs_floor = c.gather.saturating_add(c.scatter) as f64 * m.gather_cycles;
+    let vip = m.vector_issue_per_clock as f64;
+    let gathers = c.transcendental.saturating_mul(m.transcendental_cycles as u64) as f64
+        + (gs_lines as f64).max(gs_floor);
+    let scalar =
+        (c.scalar.saturating_add(c.mask) as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64).ceil();
+    let issue = if m.separate_ports {
+        (((alu + compress) / vip).ceil() + gathers)
+            .max((mem / vip).ceil())
+            .max(scalar)
+    } else {
+        (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
+    };
     let atomics = c
         .atomic
         .saturating_mul(m.atomic_cycles as u64)
         .saturating_add(c.atomic_conflicts.saturating_mul(m.atomic_conflict_cycles as u64));
-    (vector.max(scalar), atomics)
+    // `as` saturates a float beyond u64's range.
+    (issue.ceil() as u64, atomics)
 }
 
 /// The exposed part of `stall` for a task of `busy` cycles on a core of `threads` threads.
@@ -225,13 +244,16 @@ struct LineTally {
     l1_hits: u64,
     l2_hits: u64,
     l2_misses: u64,
+    /// L2 misses that hit the shared cache (0 without one).
+    l3_hits: u64,
+    /// Dirty lines the last level evicted (L2 without a shared cache, else the shared cache).
     writebacks: u64,
 }
 
 impl LineTally {
     /// Replays `lines` (ids from [`map_lines`]) through `core`'s caches.
     #[inline]
-    fn replay(&mut self, core: &mut Core, lines: &[u32]) {
+    fn replay(&mut self, core: &mut Core, mut l3: Option<&mut Cache>, lines: &[u32]) {
         for &a in lines {
             let (id, write) = (a >> 1, a & 1 == 1);
             if core.l1.access(id, write).hit {
@@ -239,11 +261,19 @@ impl LineTally {
                 continue;
             }
             let r = core.l2.access(id, write);
-            self.writebacks += r.writeback as u64;
             if r.hit {
                 self.l2_hits += 1;
-            } else {
-                self.l2_misses += 1;
+                continue;
+            }
+            self.l2_misses += 1;
+            match l3.as_deref_mut() {
+                // L2 write-backs land in the shared cache (not modelled as accesses of their own).
+                Some(l3) => {
+                    let r3 = l3.access(id, write);
+                    self.l3_hits += r3.hit as u64;
+                    self.writebacks += r3.writeback as u64;
+                }
+                None => self.writebacks += r.writeback as u64,
             }
         }
         self.accesses += lines.len() as u64;
@@ -254,6 +284,8 @@ impl LineTally {
 pub struct Machine<'a> {
     config: &'a MachineConfig,
     cores: Vec<Core>,
+    /// The shared last-level cache, when the configuration has one (`l3_kb` > 0).
+    l3: Option<Cache>,
     ids: LineIds,
     dram_miss: u64,
 }
@@ -267,11 +299,20 @@ impl<'a> Machine<'a> {
                 l2: Cache::new(config.l2_kb as u64 * 1024, config.l2_ways, config.line_bytes),
             })
             .collect();
+        let l3 = (config.l3_kb > 0)
+            .then(|| Cache::new(config.l3_kb as u64 * 1024, config.l3_ways, config.line_bytes));
         Machine {
             config,
             cores,
+            l3,
             ids: LineIds::new(),
-            dram_miss: config.dram_miss_cycles(),
+            // With a shared cache, a DRAM miss first misses it.
+            dram_miss: config.dram_miss_cycles()
+                + if config.l3_kb > 0 {
+                    config.l3_latency as u64
+                } else {
+                    0
+                },
         }
     }
 
@@ -280,9 +321,9 @@ impl<'a> Machine<'a> {
         let mut tally = LineTally::default();
         let mut chunk = Vec::new();
         let ids = &mut self.ids;
-        let cores = &mut self.cores;
+        let (cores, l3) = (&mut self.cores, &mut self.l3);
         map_lines(ids, task, &mut chunk, |lines| {
-            tally.replay(&mut cores[core], lines);
+            tally.replay(&mut cores[core], l3.as_mut(), lines);
         });
         self.finish(&task.counters, &tally, mem)
     }
@@ -292,15 +333,27 @@ impl<'a> Machine<'a> {
     fn finish(&self, counters: &Counters, tally: &LineTally, mem: &mut MemoryCounts) -> TaskCost {
         let m = self.config;
         let (issue, atomics) = compute_cost(counters, m);
+        // The host scheduler's cost of starting the task counts as synchronisation.
+        let atomics = atomics.saturating_add(m.task_overhead_cycles.ceil() as u64);
         let (l1_lat, l2_lat) = (m.l1_latency as u64, m.l2_latency as u64);
+        let dram_misses = tally.l2_misses - tally.l3_hits;
         mem.accesses += tally.accesses;
         mem.l1_misses += tally.accesses - tally.l1_hits;
         mem.l2_misses += tally.l2_misses;
+        mem.l3_hits += tally.l3_hits;
         mem.writebacks += tally.writebacks;
         let stall = (tally.l1_hits.saturating_mul(l1_lat))
             .saturating_add(tally.l2_hits.saturating_mul(l2_lat))
-            .saturating_add(tally.l2_misses.saturating_mul(self.dram_miss));
-        let exposed = exposed_stall(stall, issue.saturating_add(atomics), m.threads_per_core);
+            .saturating_add(tally.l3_hits.saturating_mul(m.l3_latency as u64))
+            .saturating_add(dram_misses.saturating_mul(self.dram_miss));
+        // Misses a thread overlaps (out-of-order cores) divide its stall before other hardware
+        // threads hide what they can.
+        let overlapped = if m.memory_parallelism > 1.0 {
+            (stall as f64 / m.memory_parallelism).ceil() as u64
+        } else {
+            stall
+        };
+        let exposed = exposed_stall(overlapped, issue.saturating_add(atomics), m.threads_per_core);
         TaskCost {
             issue,
             atomics,
@@ -341,8 +394,10 @@ impl<'a> Machine<'a> {
             // Least busy core, ties to the lowest index.
             let core = (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core");
             let mut tally = LineTally::default();
-            let cores = &mut self.cores;
-            mapped(task, &mut |lines| tally.replay(&mut cores[core], lines));
+            let (cores, l3) = (&mut self.cores, &mut self.l3);
+            mapped(task, &mut |lines| {
+                tally.replay(&mut cores[core], l3.as_mut(), lines)
+            });
             let cost = self.finish(&task.counters, &tally, &mut memory);
             busy[core] = busy[core].saturating_add(cost.cycles());
             schedule.push((core as u32, cost.cycles()));
@@ -433,6 +488,64 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
             })
             .collect()
     })
+}
+
+/// A frame's line streams decoded once into first-touch ids (`id << 1 | is_write`, as
+/// [`map_lines`] gives them), for re-timing the same records on many machines without decoding
+/// them again ([`simulate_decoded`]). Holds 4 bytes per line access.
+pub struct DecodedLines {
+    /// Every task's ids, tasks in frame order.
+    ids: Vec<u32>,
+    /// End offset in `ids` of each task, in frame order.
+    ends: Vec<usize>,
+}
+
+impl DecodedLines {
+    /// Decodes every task of `phases` (frame order).
+    pub fn decode(phases: &[(&str, &[TaskRecord])]) -> DecodedLines {
+        let total: u64 = phases
+            .iter()
+            .flat_map(|p| p.1.iter())
+            .map(|t| t.lines.len())
+            .sum();
+        let mut ids = Vec::with_capacity(total as usize);
+        let mut ends = Vec::new();
+        let mut map = LineIds::new();
+        for task in phases.iter().flat_map(|p| p.1.iter()) {
+            task.lines
+                .for_each(|line, write| ids.push(map.id(line) << 1 | write as u32));
+            ends.push(ids.len());
+        }
+        DecodedLines { ids, ends }
+    }
+    /// Host bytes the decoded ids take.
+    pub fn bytes(&self) -> usize {
+        self.ids.len() * 4 + self.ends.len() * 8
+    }
+}
+
+/// [`simulate_frame`] from lines decoded once ([`DecodedLines::decode`] of the same `phases`): the
+/// same reports, without decoding the streams again.
+pub fn simulate_decoded(
+    config: &MachineConfig,
+    phases: &[(&str, &[TaskRecord])],
+    lines: &DecodedLines,
+) -> Vec<PhaseReport> {
+    let mut machine = Machine::new(config);
+    let mut next = 0usize;
+    phases
+        .iter()
+        .map(|&(name, tasks)| {
+            machine.run_phase_with(name, tasks, |_, replay| {
+                let start = if next == 0 { 0 } else { lines.ends[next - 1] };
+                let end = lines.ends[next];
+                next += 1;
+                for chunk in lines.ids[start..end].chunks(CHUNK_LINES) {
+                    replay(chunk);
+                }
+            })
+        })
+        .collect()
 }
 
 /// Decodes `task`'s line stream as `id << 1 | is_write`, ids from `ids` (first touch over the frame,

@@ -1,0 +1,56 @@
+//! `sism calibrate`: the host preset's costs fitted to microbenchmarks; writes the machine file.
+
+use std::path::PathBuf;
+
+use sism::machine::calibrate::{self, BENCHES};
+use sism::machine::host;
+
+use super::{create_dir, print_stdout, write_file};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The fitted machine file to write (TOML; use it with `--machine`).
+    #[arg(long, default_value = "out/host.toml")]
+    out: PathBuf,
+    /// No progress bar and no table.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let facts = host::host_facts();
+    let backend = sism_simd::selected_backend();
+    let start = host::host_preset_from(&facts, backend);
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        create_dir(dir)?;
+    }
+    let bar = sism::progress::bar(BENCHES.len() as u64, "microbenchmarks", !a.quiet);
+    let measured: Vec<_> = BENCHES
+        .iter()
+        .map(|b| {
+            bar.set_message(b.name);
+            let m = calibrate::measure(b, &start);
+            bar.inc(1);
+            m
+        })
+        .collect();
+    bar.finish_and_clear();
+    let fitted = calibrate::fit(&start, &measured);
+    fitted
+        .config
+        .validate()
+        .map_err(|(k, e)| anyhow::anyhow!("the fitted model is out of range: `{k}` {e}"))?;
+    write_file(&a.out, &fitted.to_toml(&facts, backend.name()))?;
+    if !a.quiet {
+        print_stdout(&format!(
+            "{} ({} threads, {} backend, {:.2} GHz)\n{}",
+            facts.model_name,
+            facts.threads,
+            backend.name(),
+            facts.clock_ghz,
+            fitted.table().trim_end()
+        ))?;
+        eprintln!("wrote {}", a.out.display());
+    }
+    Ok(())
+}
