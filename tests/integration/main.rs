@@ -7,6 +7,7 @@ mod convergence;
 mod gaussian;
 mod golden;
 mod hardening;
+mod host_model;
 mod multi_sample;
 mod obj_loading;
 mod rbsm;

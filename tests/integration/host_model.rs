@@ -1,0 +1,148 @@
+//! The machine model on the host (#17): `sism calibrate` writes a machine file the CLI accepts,
+//! `sism validate` sets the model's predictions against measured host times, and bad input fails
+//! cleanly. Accuracy is the closing note's business (measured in release, on an idle host); these
+//! tests check that the commands work and that their figures are real and consistent.
+
+use std::path::Path;
+
+use sism::machine::MachineConfig;
+
+use super::util::{assert_clean_failure, sism};
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("host.toml");
+    let run = sism(repo(), &["calibrate", "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    // The evidence is in the file: every fitted benchmark's measured time, as comments.
+    for bench in ["alu", "copy-l1", "gather-l1-16", "stream-dram", "tasks-1024"] {
+        assert!(text.contains(bench), "no `{bench}` in the machine file:\n{text}");
+    }
+    let m = MachineConfig::resolve(out.to_str().unwrap()).expect("the fitted file loads");
+    m.validate().expect("in range");
+    let threads = std::thread::available_parallelism().unwrap().get() as u32;
+    assert_eq!(
+        m.cores * m.threads_per_core,
+        threads,
+        "one modelled thread per host thread"
+    );
+    assert!(m.separate_ports, "the host model issues loads beside arithmetic");
+    // Measured costs are positive, and the memory hierarchy is ordered.
+    for (k, v) in [
+        ("vector_cycles", m.vector_cycles),
+        ("load_store_cycles", m.load_store_cycles),
+        ("scalar_cycles", m.scalar_cycles),
+        ("gather_cycles", m.gather_cycles),
+    ] {
+        assert!(v > 0.0 && v.is_finite(), "{k} = {v}");
+    }
+    assert!(m.dram_latency_ns * m.clock_ghz > m.l2_latency as f64, "{m:?}");
+}
+
+#[test]
+fn validate_tabulates_predicted_against_measured_per_phase() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v");
+    let run = sism(
+        repo(),
+        &[
+            "validate",
+            "scenes/plate.toml",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--threads",
+            "1,all",
+            "--frames",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let csv = std::fs::read_to_string(out.join("validate.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("scene,algorithm,threads,phase,measured_ms,predicted_ms,error")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let all = std::thread::available_parallelism().unwrap().get().to_string();
+    for algo in ["sism", "sism-sampled"] {
+        for threads in ["1", all.as_str()] {
+            for phase in ["eye_pass", "grid", "umbra", "penumbra", "frame"] {
+                let row = rows
+                    .iter()
+                    .find(|r| r[1] == algo && r[2] == threads && r[3] == phase)
+                    .unwrap_or_else(|| panic!("no {algo} {threads} {phase} row in\n{csv}"));
+                let measured: f64 = row[4].parse().unwrap();
+                let predicted: f64 = row[5].parse().unwrap();
+                let error: f64 = row[6].parse().unwrap();
+                assert!(measured > 0.0 && predicted > 0.0, "{row:?}");
+                // The error column is the predicted time's relative error against the measured one
+                // (both printed to 1e-4 ms, so the slack is what that rounding can move it).
+                let expect = predicted / measured - 1.0;
+                let slack = 5e-5 * (1.0 + predicted / measured) / measured + 1e-4;
+                assert!((error - expect).abs() <= slack, "{row:?}");
+            }
+        }
+    }
+    // The frame is the sum of the phases the model times (each row rounded to 1e-4 ms).
+    for algo in ["sism", "sism-sampled"] {
+        let of = |phase: &str, col: usize| -> f64 {
+            rows.iter()
+                .find(|r| r[1] == algo && r[2] == "1" && r[3] == phase)
+                .map(|r| r[col].parse().unwrap())
+                .unwrap()
+        };
+        let phases: f64 = ["eye_pass", "grid", "umbra", "penumbra"]
+            .iter()
+            .map(|p| of(p, 5))
+            .sum();
+        assert!(phases <= of("frame", 5) + 1e-3, "{algo}: phases {phases} > frame");
+    }
+    let md = std::fs::read_to_string(out.join("validate.md")).unwrap();
+    assert!(md.contains("within ±25%"), "{md}");
+    assert!(out.join("validate.png").metadata().unwrap().len() > 1000);
+}
+
+#[test]
+fn validate_rejects_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad_machine = dir.path().join("bad.toml");
+    std::fs::write(&bad_machine, "name = \"x\"\ncores = \"many\"\n").unwrap();
+    let base = [
+        "validate",
+        "scenes/plate.toml",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--quiet",
+    ];
+    let with = |extra: &[&str]| {
+        let mut args: Vec<&str> = base.to_vec();
+        args.extend_from_slice(extra);
+        let o = dir.path().join("o");
+        args.extend_from_slice(&["--out", o.to_str().unwrap()]);
+        sism(repo(), &args)
+    };
+    assert_clean_failure(&with(&["--threads", "0"]), &["--threads"]);
+    assert_clean_failure(&with(&["--algos", "reference"]), &["reference", "kernels"]);
+    assert_clean_failure(&with(&["--algos", "no-such-thing"]), &["no-such-thing"]);
+    assert_clean_failure(&with(&["--frames", "0"]), &["--frames"]);
+    assert_clean_failure(&with(&["--tolerance", "NaN"]), &["--tolerance"]);
+    assert_clean_failure(
+        &with(&["--machine", bad_machine.to_str().unwrap()]),
+        &["bad.toml", "cores"],
+    );
+    assert_clean_failure(&with(&["--machine", "/no/such/machine.toml"]), &["machine"]);
+}
