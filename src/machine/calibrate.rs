@@ -8,7 +8,8 @@
 //! solved in closed form from the benchmark it dominates, holding the others, and the solve is
 //! repeated until the costs settle (Gauss–Seidel; each benchmark depends on one cost mostly).
 //!
-//! The fitted costs: `vector_cycles` (ALU/FMA stream), `load_store_cycles` (streaming loads from
+//! The fitted costs: `vector_cycles` (ALU/FMA stream on 8 independent chains: the throughput),
+//! `vector_latency_cycles` (the same operations on one chain: the latency), `load_store_cycles` (streaming loads from
 //! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains the kernel reports with
 //! `scalar_ops`), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
 //! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
@@ -16,7 +17,7 @@
 //! in the shared cache, in DRAM: the effective cost of a line miss as a streaming kernel sees it, with
 //! the prefetchers at work, with `memory_parallelism` held at [`FIT_PARALLELISM`]),
 //! `task_overhead_cycles` and `barrier_cycles` (empty tasks through the frame's own task runner on
-//! all host threads, as frames run them). The other benchmarks (gathers at 1 and 4 distinct lines,
+//! all host threads, as frames run them). The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
 //! gathers from L2 and DRAM, streaming stores) are not fitted: their residuals show how well
 //! the fitted model carries over.
 //!
@@ -41,6 +42,8 @@ pub const FIT_PARALLELISM: f64 = 16.0;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fits {
     Vector,
+    /// `vector_latency_cycles`, on one dependency chain.
+    VectorLatency,
     LoadStore,
     Compress,
     Scalar,
@@ -69,8 +72,10 @@ pub struct Bench {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
+    /// `iters` rounds of 8 add/mul/fma on `chains` independent dependency chains (1, 2, 4 or 8).
     Alu {
         iters: usize,
+        chains: usize,
     },
     ScalarChain {
         iters: usize,
@@ -136,7 +141,19 @@ pub const BENCHES: &[Bench] = &[
         name: "alu",
         what: "16-lane add/mul/fma, 8 independent chains",
         fits: Fits::Vector,
-        kind: Kind::Alu { iters: 200_000 },
+        kind: Kind::Alu {
+            iters: 200_000,
+            chains: 8,
+        },
+    },
+    Bench {
+        name: "alu-chain-1",
+        what: "16-lane add/mul/fma, one dependency chain (latency bound)",
+        fits: Fits::VectorLatency,
+        kind: Kind::Alu {
+            iters: 50_000,
+            chains: 1,
+        },
     },
     Bench {
         name: "copy-l1",
@@ -243,6 +260,15 @@ pub const BENCHES: &[Bench] = &[
         },
     },
     Bench {
+        name: "alu-chain-2",
+        what: "16-lane add/mul/fma, 2 independent chains",
+        fits: Fits::Check,
+        kind: Kind::Alu {
+            iters: 100_000,
+            chains: 2,
+        },
+    },
+    Bench {
         name: "gather-l1-1",
         what: "gathers from an L1 table, 1 line each",
         fits: Fits::Check,
@@ -331,11 +357,14 @@ fn gather_indices(n: usize, lines: u32, count: usize) -> Vec<i32> {
     out
 }
 
-struct AluK {
+/// `CHAINS` independent dependency chains (1, 2, 4 or 8) through the same 8 operations per round:
+/// the host runs them at its throughput with 8 and at its latency with 1; the model, which knows no
+/// dependencies, charges both the same per operation.
+struct AluK<const CHAINS: usize> {
     iters: usize,
     seed: f32,
 }
-impl Kernel for AluK {
+impl<const CHAINS: usize> Kernel for AluK<CHAINS> {
     type Output = f32;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> f32 {
@@ -344,16 +373,16 @@ impl Kernel for AluK {
         let mut a = [s.splat_f(self.seed); 8];
         for _ in 0..self.iters {
             a[0] = s.add_f(a[0], c);
-            a[1] = s.mul_f(a[1], k);
-            a[2] = s.fmadd(a[2], k, c);
-            a[3] = s.add_f(a[3], c);
-            a[4] = s.mul_f(a[4], k);
-            a[5] = s.fmadd(a[5], k, c);
-            a[6] = s.add_f(a[6], c);
-            a[7] = s.fmadd(a[7], k, c);
+            a[1 % CHAINS] = s.mul_f(a[1 % CHAINS], k);
+            a[2 % CHAINS] = s.fmadd(a[2 % CHAINS], k, c);
+            a[3 % CHAINS] = s.add_f(a[3 % CHAINS], c);
+            a[4 % CHAINS] = s.mul_f(a[4 % CHAINS], k);
+            a[5 % CHAINS] = s.fmadd(a[5 % CHAINS], k, c);
+            a[6 % CHAINS] = s.add_f(a[6 % CHAINS], c);
+            a[7 % CHAINS] = s.fmadd(a[7 % CHAINS], k, c);
         }
         let mut sum = a[0];
-        for v in &a[1..] {
+        for v in &a[1..CHAINS] {
             sum = s.add_f(sum, *v);
         }
         s.reduce_add_f(sum)
@@ -547,14 +576,31 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
         rec.take_tasks()
     };
     let (host_ns, tasks) = match bench.kind {
-        Kind::Alu { iters } => (
-            time(&mut || {
-                black_box(sism_simd::run_native(AluK { iters, seed: 1.0 }));
-            }),
-            counted(&mut |r| {
-                sism_simd::run_counting(r, AluK { iters, seed: 1.0 });
-            }),
-        ),
+        Kind::Alu { iters, chains } => {
+            // One instance per chain count (a const parameter, so the rounds compile to straight
+            // chains); the same kernel counted.
+            fn alu<const C: usize>(iters: usize, r: Option<&Recorder>) -> f32 {
+                let k = AluK::<C> { iters, seed: 1.0 };
+                match r {
+                    None => sism_simd::run_native(k),
+                    Some(r) => sism_simd::run_counting(r, k),
+                }
+            }
+            let f: fn(usize, Option<&Recorder>) -> f32 = match chains {
+                1 => alu::<1>,
+                2 => alu::<2>,
+                4 => alu::<4>,
+                _ => alu::<8>,
+            };
+            (
+                time(&mut || {
+                    black_box(f(iters, None));
+                }),
+                counted(&mut |r| {
+                    f(iters, Some(r));
+                }),
+            )
+        }
         Kind::ScalarChain { iters } => (
             time(&mut || {
                 black_box(sism_simd::run_native(ScalarK { iters }));
@@ -720,6 +766,11 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
 pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
     let mut one = m.clone();
     let is_step = matches!(x.bench.kind, Kind::Tasks { .. });
+    // A benchmark's dependency chains are known (the frames' are the config's assumption).
+    one.vector_chains = match x.bench.kind {
+        Kind::Alu { chains, .. } => chains as f64,
+        _ => 1.0,
+    };
     if !is_step {
         one.cores = 1;
         one.barrier_cycles = 0;
@@ -779,6 +830,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         for x in measured {
             match x.bench.fits {
                 Fits::Vector => solve(&mut m, x, 0.01, 100.0, &|m, c| m.vector_cycles = c),
+                Fits::VectorLatency => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.vector_latency_cycles = c),
                 Fits::LoadStore => solve(&mut m, x, 0.01, 100.0, &|m, c| m.load_store_cycles = c),
                 Fits::Compress => solve(&mut m, x, 0.01, 1000.0, &|m, c| m.compress_cycles = c),
                 Fits::Scalar => solve(&mut m, x, 0.01, 100.0, &|m, c| m.scalar_cycles = c),
@@ -820,6 +872,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     }
     // Rounded for a readable file; each value stays within its documented range.
     m.vector_cycles = (m.vector_cycles * 1000.0).round().max(10.0) / 1000.0;
+    m.vector_latency_cycles = (m.vector_latency_cycles * 1000.0).round() / 1000.0;
     m.load_store_cycles = (m.load_store_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.compress_cycles = (m.compress_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.scalar_cycles = (m.scalar_cycles * 1000.0).round().max(10.0) / 1000.0;
@@ -891,6 +944,7 @@ mod tests {
         );
         truth.memory_parallelism = FIT_PARALLELISM;
         truth.vector_cycles = 0.7;
+        truth.vector_latency_cycles = 3.3;
         truth.load_store_cycles = 0.4;
         truth.compress_cycles = 3.0;
         truth.scalar_cycles = 0.35;
@@ -903,7 +957,7 @@ mod tests {
         truth.barrier_cycles = 8000;
         // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
         let shrink = |k: Kind| match k {
-            Kind::Alu { .. } => Kind::Alu { iters: 2000 },
+            Kind::Alu { chains, .. } => Kind::Alu { iters: 2000, chains },
             Kind::ScalarChain { .. } => Kind::ScalarChain { iters: 5000 },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
             Kind::Gather {
@@ -955,6 +1009,11 @@ mod tests {
         let c = fit(&start, &measured).config;
         let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
         assert!(near(c.vector_cycles, 0.7, 0.02), "vector {}", c.vector_cycles);
+        assert!(
+            near(c.vector_latency_cycles, 3.3, 0.02),
+            "vector latency {}",
+            c.vector_latency_cycles
+        );
         assert!(near(c.scalar_cycles, 0.35, 0.02), "scalar {}", c.scalar_cycles);
         assert!(
             near(c.load_store_cycles, 0.4, 0.02),

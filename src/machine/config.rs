@@ -70,6 +70,8 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("gather_cycles", 0.01, 10_000.0),
     ("memory_parallelism", 1.0, 64.0),
     ("task_overhead_cycles", 0.0, 10_000_000.0),
+    ("vector_latency_cycles", 0.0, 10_000.0),
+    ("vector_chains", 1.0, 64.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -174,6 +176,18 @@ pub struct MachineConfig {
     /// Larrabee: 0 (its software scheduler's cost is inside the kernels' scalar counts).
     #[serde(default)]
     pub task_overhead_cycles: f64,
+    /// Cycles from one vector ALU or FMA instruction to the next that needs its result (0–10000;
+    /// 0 = not modelled, as for Larrabee, whose four hardware threads per core hide it). With it a
+    /// task's vector ALU work takes at least `(valu + fma) × vector_latency_cycles / vector_chains`:
+    /// the records hold no dependencies, so `vector_chains` states how many independent chains the
+    /// kernels' code offers a core that has nothing else to run.
+    #[serde(default)]
+    pub vector_latency_cycles: f64,
+    /// Independent dependency chains the kernels' vector code offers one hardware thread (1–64), for
+    /// `vector_latency_cycles`. The sism kernels carry one 16-lane value through each loop
+    /// iteration, Larrabee style (latency hidden by hardware threads, not by unrolling): 1.
+    #[serde(default = "one")]
+    pub vector_chains: f64,
     /// A last-level cache shared by all cores, KB (0 = none, as on Larrabee, whose L2 subsets are the
     /// last level). An L2 miss looks it up before going to DRAM.
     #[serde(default)]
@@ -247,6 +261,8 @@ impl MachineConfig {
             separate_ports: false,
             memory_parallelism: 1.0,
             task_overhead_cycles: 0.0,
+            vector_latency_cycles: 0.0,
+            vector_chains: 1.0,
             l3_kb: 0,
             l3_ways: 16,
             l3_latency: 0,
@@ -446,6 +462,8 @@ impl MachineConfig {
             "gather_cycles" => self.gather_cycles,
             "memory_parallelism" => self.memory_parallelism,
             "task_overhead_cycles" => self.task_overhead_cycles,
+            "vector_latency_cycles" => self.vector_latency_cycles,
+            "vector_chains" => self.vector_chains,
             _ => unreachable!("not a real field: {key}"),
         }
     }

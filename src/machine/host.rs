@@ -35,6 +35,10 @@ pub struct Family {
     pub vector_avx512: f64,
     /// The same on the portable backend (a 16-iteration loop, auto-vectorised to 256-bit at best).
     pub vector_portable: f64,
+    /// Latency of a vector add/mul/fma, cycles: the mean over the calibration chain's mix of 3 adds,
+    /// 2 muls and 3 FMAs (Zen 5: 2/3/4; Zen 4: 3/3/4; Intel: 4/4/4). The same on every backend: a
+    /// 16-lane operation split into 256- or 128-bit halves runs its halves side by side.
+    pub vector_latency: f64,
     /// One 16-lane contiguous load or store on the AVX-512 backend (2–3 load ports), cycles.
     pub load_store: f64,
     /// One compress or expand on the AVX-512 backend (a memory-form compress is microcoded), cycles.
@@ -71,6 +75,7 @@ pub const FAMILIES: &[Family] = &[
         name: "zen5",
         vector_avx512: 0.6,
         vector_portable: 4.0,
+        vector_latency: 3.0,
         load_store: 0.5,
         compress: 4.0,
         scalar: 0.3,
@@ -89,6 +94,7 @@ pub const FAMILIES: &[Family] = &[
         name: "zen4",
         vector_avx512: 1.0,
         vector_portable: 4.0,
+        vector_latency: 3.4,
         load_store: 0.5,
         compress: 4.0,
         scalar: 0.3,
@@ -107,6 +113,7 @@ pub const FAMILIES: &[Family] = &[
         name: "sapphire-rapids",
         vector_avx512: 0.6,
         vector_portable: 4.0,
+        vector_latency: 4.0,
         load_store: 0.5,
         compress: 4.0,
         scalar: 0.3,
@@ -125,6 +132,7 @@ pub const FAMILIES: &[Family] = &[
         name: "icelake-sp",
         vector_avx512: 0.7,
         vector_portable: 4.0,
+        vector_latency: 4.0,
         load_store: 0.5,
         compress: 4.0,
         scalar: 0.3,
@@ -143,6 +151,7 @@ pub const FAMILIES: &[Family] = &[
         name: "generic-x86",
         vector_avx512: 1.0,
         vector_portable: 5.0,
+        vector_latency: 4.0,
         load_store: 0.5,
         compress: 4.0,
         scalar: 0.35,
@@ -346,6 +355,8 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         separate_ports: true,
         memory_parallelism: fam.memory_parallelism,
         task_overhead_cycles: fam.task_overhead,
+        vector_latency_cycles: fam.vector_latency,
+        vector_chains: 1.0,
         l3_kb,
         l3_ways,
         l3_latency: if l3_kb > 0 { fam.l3_latency } else { 0 },

@@ -17,6 +17,10 @@
 //!   `compress_cycles`, `scalar_cycles`, all 1 on Larrabee), and a gather or scatter costs at least
 //!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores,
 //!   and scalar work issue on their own ports: `max(vector ALU, load/store, scalar)`.
+//! * **Dependency chains** (when `vector_latency_cycles` > 0, the host model): the records hold no
+//!   dependencies, so the vector ALU work of a task is taken to form `vector_chains` independent
+//!   chains and costs at least `(valu + fma) × vector_latency_cycles / vector_chains`. Larrabee hides
+//!   this latency with its four hardware threads and leaves it at 0.
 //! * **Host scheduling**: each task costs `task_overhead_cycles` to start (0 on Larrabee), counted
 //!   with the atomics as synchronisation.
 //! * **Atomics**: each vector fetch-add costs `atomic_cycles`, plus `atomic_conflict_cycles` per
@@ -178,12 +182,15 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         + (gs_lines as f64).max(gs_floor);
     let scalar =
         (c.scalar.saturating_add(c.mask) as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64).ceil();
+    // Dependent vector operations wait for each other (when the latency is modelled): the ALU work
+    // takes at least its chains' length, however wide the issue.
+    let chain = c.valu.saturating_add(c.fma) as f64 * m.vector_latency_cycles / m.vector_chains;
     let issue = if m.separate_ports {
-        (((alu + compress) / vip).ceil() + gathers)
+        (((alu + compress) / vip).max(chain).ceil() + gathers)
             .max((mem / vip).ceil())
             .max(scalar)
     } else {
-        (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
+        (((alu + mem + compress) / vip).max(chain).ceil() + gathers).max(scalar)
     };
     let atomics = c
         .atomic
@@ -623,5 +630,24 @@ mod tests {
         };
         // vector: 15 + 2*4 + 3*1 = 26; scalar 30 → issue 30. atomics 2*8 + 3*4 = 28.
         assert_eq!(compute_cost(&c, &m), (30, 28));
+    }
+
+    #[test]
+    fn vector_latency_bounds_dependent_chains() {
+        let mut m = MachineConfig::larrabee_24();
+        let c = Counters {
+            valu: 8,
+            fma: 4,
+            ..Default::default()
+        };
+        // Throughput only: 12 issue cycles.
+        assert_eq!(compute_cost(&c, &m).0, 12);
+        // One chain at 3 cycles a step: 36; two chains: 18; eight chains: back to the issue bound.
+        m.vector_latency_cycles = 3.0;
+        assert_eq!(compute_cost(&c, &m).0, 36);
+        m.vector_chains = 2.0;
+        assert_eq!(compute_cost(&c, &m).0, 18);
+        m.vector_chains = 8.0;
+        assert_eq!(compute_cost(&c, &m).0, 12);
     }
 }
