@@ -357,6 +357,19 @@ fn gather_indices(n: usize, lines: u32, count: usize) -> Vec<i32> {
     out
 }
 
+impl Kind {
+    /// Independent chains the benchmark's vector ALU operations form (read off its kernel below).
+    fn chains(self) -> usize {
+        match self {
+            Kind::Alu { chains, .. } => chains,
+            // Four accumulators.
+            Kind::Copy { .. } | Kind::Stream { .. } => 4,
+            // One accumulator, or no ALU work to speak of.
+            _ => 1,
+        }
+    }
+}
+
 /// `CHAINS` independent dependency chains (1, 2, 4 or 8) through the same 8 operations per round:
 /// the host runs them at its throughput with 8 and at its latency with 1; the model, which knows no
 /// dependencies, charges both the same per operation.
@@ -767,10 +780,7 @@ pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
     let mut one = m.clone();
     let is_step = matches!(x.bench.kind, Kind::Tasks { .. });
     // A benchmark's dependency chains are known (the frames' are the config's assumption).
-    one.vector_chains = match x.bench.kind {
-        Kind::Alu { chains, .. } => chains as f64,
-        _ => 1.0,
-    };
+    one.vector_chains = x.bench.kind.chains() as f64;
     if !is_step {
         one.cores = 1;
         one.barrier_cycles = 0;
