@@ -15,5 +15,6 @@ mod shadow_maps;
 mod shared_scenes;
 mod sism;
 mod ssmm;
+mod study_slurm;
 mod util;
 mod workloads;

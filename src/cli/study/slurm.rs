@@ -56,7 +56,7 @@ pub struct JobArgs {
     #[arg(long)]
     time: Option<String>,
     /// (slurm) An extra `#SBATCH` line, e.g. "--mem=2G" (repeatable).
-    #[arg(long = "sbatch-arg", value_name = "ARG")]
+    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true)]
     sbatch_args: Vec<String>,
     /// (slurm) Write the study directory and its script, do not submit.
     #[arg(long)]
