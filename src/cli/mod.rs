@@ -46,6 +46,8 @@ enum Command {
     Replay(replay::Args),
     /// Simulate one frame on many machines: cores (and optionally threads per core and L2 sizes)
     /// vary around a base machine; writes study.csv, speedup.png, phases.png, records.bin, machine.toml.
+    /// `--backend slurm` writes the sweep to a study directory and submits it as a Slurm job array;
+    /// `study run|collect|submit DIR` run a task, merge the results, (re)submit.
     Study(study::Args),
     /// Compare a visibility image with a reference: MAE, RMSE, p99, share of |error| > 0.1, penumbra MAE.
     Compare(compare::Args),

@@ -16,5 +16,6 @@ mod shadow_maps;
 mod shared_scenes;
 mod sism;
 mod ssmm;
+mod study_slurm;
 mod util;
 mod workloads;
