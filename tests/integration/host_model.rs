@@ -33,7 +33,7 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
         "one modelled thread per host thread"
     );
     assert!(m.separate_ports, "the host model issues loads beside arithmetic");
-    // Measured costs are positive, and the memory hierarchy is ordered.
+    // Measured issue costs are positive.
     for (k, v) in [
         ("vector_cycles", m.vector_cycles),
         ("load_store_cycles", m.load_store_cycles),
@@ -42,7 +42,9 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     ] {
         assert!(v > 0.0 && v.is_finite(), "{k} = {v}");
     }
-    assert!(m.dram_latency_ns * m.clock_ghz > m.l2_latency as f64, "{m:?}");
+    // A DRAM line costs no less than an L2 one. (Both may fit to 0: on the portable backend the
+    // streaming kernels are issue-bound and the model hides every miss behind the issue.)
+    assert!(m.dram_latency_ns * m.clock_ghz >= m.l2_latency as f64, "{m:?}");
 }
 
 #[test]

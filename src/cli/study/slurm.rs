@@ -571,6 +571,26 @@ fn sbatch_script(dir: &Path, m: &Manifest, job: &JobArgs) -> anyhow::Result<Stri
     Ok(s)
 }
 
+/// The cluster's `MaxArraySize` from `scontrol show config` (None when scontrol is absent or
+/// does not say).
+fn max_array_size() -> Option<usize> {
+    let out = Command::new("scontrol").args(["show", "config"]).output().ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    parse_max_array_size(&String::from_utf8_lossy(&out.stdout))
+}
+
+/// `MaxArraySize` from the text of `scontrol show config`.
+fn parse_max_array_size(config: &str) -> Option<usize> {
+    config.lines().find_map(|l| {
+        let (k, v) = l.split_once('=')?;
+        (k.trim() == "MaxArraySize")
+            .then(|| v.trim().parse().ok())
+            .flatten()
+    })
+}
+
 /// Submits the study's array (all of it, or only `tasks`) with `sbatch`; appends the job id to
 /// `jobs.txt`. `dry_run`: prints the command instead.
 fn submit(
@@ -595,6 +615,19 @@ fn submit(
         args.push(format!("--array={spec}"));
     }
     args.push(script.display().to_string());
+    // Slurm refuses array indices at or past its MaxArraySize (1001 by default): say what to do.
+    let highest = tasks
+        .and_then(|t| t.iter().max().copied())
+        .unwrap_or(m.tasks.saturating_sub(1));
+    if let Some(max) = max_array_size() {
+        anyhow::ensure!(
+            highest < max,
+            "this study's array reaches task {highest}, but the cluster's MaxArraySize is {max} \
+             (indices 0..{max}): write it again with a larger --chunk (at least {}), or ask the \
+             administrators to raise MaxArraySize",
+            m.point.len().div_ceil(max.max(1))
+        );
+    }
     if dry_run {
         let line: Vec<String> = std::iter::once("sbatch".to_string())
             .chain(args.iter().map(|a| shell_quote(a)))
@@ -1088,6 +1121,15 @@ mod tests {
         assert_eq!(array_spec(&[1, 4]), "1,4");
         assert_eq!(array_spec(&[1, 2, 4, 6, 7, 8]), "1,2,4,6-8");
         assert_eq!(array_spec(&[3]), "3");
+    }
+
+    #[test]
+    fn max_array_size_is_read_from_scontrol() {
+        let config = "Configuration data as of 2026-12-02T14:00:00\nMailProg                = /bin/mail\n\
+                      MaxArraySize            = 1001\nMaxJobCount             = 10000\n";
+        assert_eq!(parse_max_array_size(config), Some(1001));
+        assert_eq!(parse_max_array_size("MaxJobCount = 5\n"), None);
+        assert_eq!(parse_max_array_size("MaxArraySize = lots\n"), None);
     }
 
     #[test]
