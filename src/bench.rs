@@ -398,7 +398,8 @@ fn total_ms(result: &RenderResult, t0: Instant) -> f64 {
         .unwrap_or_else(|| t0.elapsed().as_secs_f64() * 1e3)
 }
 
-fn median(values: &[f64]) -> f64 {
+/// The median of `values` (the mean of the middle two for an even count; NaN for none).
+pub(crate) fn median(values: &[f64]) -> f64 {
     let mut v = values.to_vec();
     v.sort_by(f64::total_cmp);
     let n = v.len();

@@ -14,6 +14,7 @@ use crate::exec::Exec;
 use crate::machine::{self, MachineConfig};
 use crate::render::{self, RenderOptions};
 use crate::scene::Scene;
+use crate::stats::StatsReport;
 
 /// The phases the issue's ±25% goal names (eye pass, grid, umbra, penumbra), where a frame has them.
 pub const MAJOR_PHASES: &[&str] = &["eye_pass", "grid", "umbra", "penumbra"];
@@ -76,24 +77,28 @@ pub fn validate(
     );
     let records = std::mem::take(&mut counted.records);
     drop(counted);
-    let mut rows = Vec::new();
+    let mut configs = Vec::with_capacity(threads.len());
     for &t in threads {
         let mut config = model.clone();
         config.cores = t;
         config
             .validate()
             .map_err(|(k, e)| anyhow::anyhow!("the model with {t} cores: `{k}` {e}"))?;
-        let report = machine::simulate(&records, &config);
+        configs.push(config);
+    }
+    // One replay per thread count, the records' lines decoded once for all of them.
+    let reports = machine::sweep::run(&records, &configs, || ());
+    let mut rows = Vec::new();
+    for (&t, point) in threads.iter().zip(&reports) {
+        let report = &point.report;
         progress(&format!("{name} {} native, {t} thread(s)", algorithm.name));
         let pool = ThreadPoolBuilder::new()
             .num_threads(t as usize)
             .build()
             .map_err(|e| anyhow::anyhow!("cannot start {t} host threads: {e}"))?;
         let times = pool.install(|| native_times(&prepared, algorithm, params, frames));
-        let measured = |key: &str| median(times.iter().filter_map(|f| f.get(key).copied()));
-        let mut push = |phase: &str, predicted: Option<f64>| {
-            let key = format!("time.{phase}");
-            if let Some(m) = measured(&key) {
+        let mut push = |phase: &str, measured: Option<f64>, predicted: Option<f64>| {
+            if let Some(m) = measured {
                 rows.push(Row {
                     scene: name.clone(),
                     algorithm: algorithm.name.to_string(),
@@ -104,16 +109,21 @@ pub fn validate(
                 });
             }
         };
+        let measured = |phase: &str| {
+            let key = format!("time.{phase}");
+            median(times.iter().filter_map(|f| f.stats.get(&key)))
+        };
         // Phases in the native frame's order; the model's group when it has one.
         let order = times.first().map(|f| f.order.clone()).unwrap_or_default();
         for phase in order.iter().filter(|p| !p.contains('.')) {
             push(
                 phase,
+                measured(phase),
                 report.groups.iter().find(|g| g.phase == *phase).map(|g| g.ms),
             );
         }
         for step in report.phases.iter().filter(|p| p.phase.contains('.')) {
-            push(&step.phase, Some(step.ms));
+            push(&step.phase, measured(&step.phase), Some(step.ms));
         }
         // The frame: only the phases the model times, so an untimed phase is not a model error.
         let timed: Vec<&String> = order
@@ -123,34 +133,19 @@ pub fn validate(
         let frame_measured = median(times.iter().map(|f| {
             timed
                 .iter()
-                .filter_map(|p| f.get(&format!("time.{p}")))
+                .filter_map(|p| f.stats.get(&format!("time.{p}")))
                 .sum::<f64>()
         }));
-        if let Some(m) = frame_measured {
-            rows.push(Row {
-                scene: name.clone(),
-                algorithm: algorithm.name.to_string(),
-                threads: t,
-                phase: "frame".into(),
-                measured_ms: m,
-                predicted_ms: Some(report.frame.ms),
-            });
-        }
+        push("frame", frame_measured, Some(report.frame.ms));
     }
     Ok(rows)
 }
 
-/// One native frame's `time.*` rows (ms), keyed without the prefix kept, and their order.
+/// One native frame's stats (its `time.*` rows, ms) and the order of its phases and steps.
 struct FrameTimes {
-    values: Vec<(String, f64)>,
+    stats: StatsReport,
     /// Phase and step names in the order the frame reported them.
     order: Vec<String>,
-}
-
-impl FrameTimes {
-    fn get(&self, key: &str) -> Option<&f64> {
-        self.values.iter().find(|(k, _)| k == key).map(|(_, v)| v)
-    }
 }
 
 /// `frames` native frames after one warm-up, on the current rayon pool.
@@ -167,35 +162,23 @@ fn native_times(
     let _ = render::render_prepared(prepared, algorithm, params, &opts);
     (0..frames.max(1))
         .map(|_| {
-            let r = render::render_prepared(prepared, algorithm, params, &opts);
-            let values: Vec<(String, f64)> = r
-                .stats
+            let stats = render::render_prepared(prepared, algorithm, params, &opts).stats;
+            let order = stats
                 .stats
                 .iter()
-                .filter(|s| s.name.starts_with("time."))
-                .map(|s| (s.name.clone(), s.value))
+                .filter_map(|s| s.name.strip_prefix("time."))
+                .filter(|k| !matches!(*k, "frame" | "total" | "prepare_scene" | "bvh_build"))
+                .map(str::to_string)
                 .collect();
-            let order = values
-                .iter()
-                .map(|(k, _)| k["time.".len()..].to_string())
-                .filter(|k| !matches!(k.as_str(), "frame" | "total" | "prepare_scene" | "bvh_build"))
-                .collect();
-            FrameTimes { values, order }
+            FrameTimes { stats, order }
         })
         .collect()
 }
 
+/// The median of `values` ([`crate::bench::median`]), `None` when there are none.
 fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let mut v: Vec<f64> = values.collect();
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(if v.len() % 2 == 1 {
-        v[v.len() / 2]
-    } else {
-        (v[v.len() / 2 - 1] + v[v.len() / 2]) / 2.0
-    })
+    let v: Vec<f64> = values.collect();
+    (!v.is_empty()).then(|| crate::bench::median(&v))
 }
 
 /// `validate.csv`: one row per scene, algorithm, thread count and phase.

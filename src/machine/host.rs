@@ -308,12 +308,8 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
     };
     let (l1_kb, l1_ways) = cache(1, (32, 8));
     let (l2_kb, l2_ways) = cache(2, (1024, 16));
-    let (l3_kb, l3_ways) = facts
-        .caches
-        .iter()
-        .find(|c| c.0 == 3)
-        .and_then(|&(_, kb, ways)| valid_ways(kb, ways).map(|w| (kb, w)))
-        .unwrap_or((0, 16));
+    // No shared cache the OS reports: none modelled.
+    let (l3_kb, l3_ways) = cache(3, (0, 16));
     // The portable backend compiled for AVX2 runs a 16-lane op as two 256-bit ones at best; for the
     // baseline target (SSE2) as four 128-bit ones or a scalar loop.
     use sism_simd::BackendKind;

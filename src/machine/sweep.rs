@@ -80,13 +80,3 @@ pub fn run(records: &[PhaseRecords], configs: &[MachineConfig], done: impl Fn() 
         })
         .collect()
 }
-
-/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
-pub fn speedup(points: &[SweepPoint], p: &SweepPoint) -> f64 {
-    let base = points
-        .iter()
-        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb)
-        .min_by_key(|q| q.cores)
-        .unwrap_or(p);
-    base.report.frame.cycles as f64 / p.report.frame.cycles.max(1) as f64
-}

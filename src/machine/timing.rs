@@ -503,12 +503,12 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
 pub struct DecodedLines {
     /// Every task's ids, tasks in frame order.
     ids: Vec<u32>,
-    /// End offset in `ids` of each task, in frame order.
-    ends: Vec<usize>,
+    /// Task `k`'s ids are `ids[offsets[k]..offsets[k + 1]]` (tasks in frame order; starts at 0).
+    offsets: Vec<usize>,
 }
 
 impl DecodedLines {
-    /// Decodes every task of `phases` (frame order).
+    /// Decodes every task of `phases` (frame order) with [`map_lines`], as a replay does.
     pub fn decode(phases: &[(&str, &[TaskRecord])]) -> DecodedLines {
         let total: u64 = phases
             .iter()
@@ -516,18 +516,13 @@ impl DecodedLines {
             .map(|t| t.lines.len())
             .sum();
         let mut ids = Vec::with_capacity(total as usize);
-        let mut ends = Vec::new();
-        let mut map = LineIds::new();
+        let mut offsets = vec![0];
+        let (mut map, mut chunk) = (LineIds::new(), Vec::new());
         for task in phases.iter().flat_map(|p| p.1.iter()) {
-            task.lines
-                .for_each(|line, write| ids.push(map.id(line) << 1 | write as u32));
-            ends.push(ids.len());
+            map_lines(&mut map, task, &mut chunk, |c| ids.extend_from_slice(c));
+            offsets.push(ids.len());
         }
-        DecodedLines { ids, ends }
-    }
-    /// Host bytes the decoded ids take.
-    pub fn bytes(&self) -> usize {
-        self.ids.len() * 4 + self.ends.len() * 8
+        DecodedLines { ids, offsets }
     }
 }
 
@@ -539,15 +534,13 @@ pub fn simulate_decoded(
     lines: &DecodedLines,
 ) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
-    let mut next = 0usize;
+    let mut task = lines.offsets.windows(2);
     phases
         .iter()
         .map(|&(name, tasks)| {
             machine.run_phase_with(name, tasks, |_, replay| {
-                let start = if next == 0 { 0 } else { lines.ends[next - 1] };
-                let end = lines.ends[next];
-                next += 1;
-                for chunk in lines.ids[start..end].chunks(CHUNK_LINES) {
+                let span = task.next().expect("one span per task of the same phases");
+                for chunk in lines.ids[span[0]..span[1]].chunks(CHUNK_LINES) {
                     replay(chunk);
                 }
             })

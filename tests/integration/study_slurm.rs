@@ -171,15 +171,19 @@ fn killed_tasks_are_reported_and_rerun_alone() {
     let dry_out = String::from_utf8_lossy(&dry.stdout);
     ok(&dry, "collect --resubmit --dry-run");
     assert!(dry_out.contains("--array=1,4"), "{dry_out}");
-    let kept: Vec<_> = [0, 2, 3, 5]
-        .iter()
-        .map(|k| {
-            std::fs::metadata(s.join(format!("results/task-{k}.json")))
-                .unwrap()
-                .modified()
-                .unwrap()
-        })
-        .collect();
+    // Modification times of the finished tasks' results.
+    let finished_mtimes = || -> Vec<_> {
+        [0, 2, 3, 5]
+            .iter()
+            .map(|k| {
+                std::fs::metadata(s.join(format!("results/task-{k}.json")))
+                    .unwrap()
+                    .modified()
+                    .unwrap()
+            })
+            .collect()
+    };
+    let kept = finished_mtimes();
     if slurm_available() {
         let out = sism(
             dir,
@@ -218,15 +222,7 @@ fn killed_tasks_are_reported_and_rerun_alone() {
         }
         ok(&sism(dir, &["study", "collect", "s", "--quiet"]), "collect");
     }
-    let again: Vec<_> = [0, 2, 3, 5]
-        .iter()
-        .map(|k| {
-            std::fs::metadata(s.join(format!("results/task-{k}.json")))
-                .unwrap()
-                .modified()
-                .unwrap()
-        })
-        .collect();
+    let again = finished_mtimes();
     assert_eq!(kept, again, "finished tasks' results are not rewritten");
     assert_eq!(
         String::from_utf8(read(s.join("study.csv"))).unwrap(),

@@ -282,8 +282,7 @@ impl Point {
     }
 }
 
-/// Frame speedup of `p` over the smallest core count with the same threads and L2 size (as
-/// [`sweep::speedup`]).
+/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
 pub fn speedup(points: &[Point], p: &Point) -> f64 {
     let base = points
         .iter()
