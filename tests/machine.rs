@@ -413,7 +413,7 @@ fn plate_on_larrabee_24_and_replay() {
     let loaded = load_records(&path).unwrap();
     assert_eq!(loaded, canonical);
     assert_eq!(simulate(&loaded, &m), r);
-    let m48 = MachineConfig::resolve("larrabee-48").unwrap();
+    let m48 = MachineConfig::resolve("larrabee-48", None).unwrap();
     assert_eq!(simulate(&loaded, &m48), simulate(&records, &m48));
     // A second counted render (new allocations at new addresses) times identically.
     assert_eq!(simulate(&counted_records(&scene), &m), r);
@@ -494,7 +494,7 @@ fn machine_toml_base_and_overrides() {
     let back = MachineConfig::from_toml(&m.to_toml(), "y").unwrap();
     assert_eq!(back, m);
     for p in sism::machine::config::PRESETS {
-        let c = MachineConfig::preset(p).unwrap();
+        let c = MachineConfig::resolve(p, Some(sism::host::facts())).unwrap();
         c.validate().unwrap();
         assert_eq!(c.name, *p);
     }
@@ -523,10 +523,13 @@ fn bad_machine_toml_names_the_key() {
     std::fs::write(&path, "base = \"larrabee-24\"\nl1_wayz = 4\n").unwrap();
     let e = format!(
         "{:#}",
-        MachineConfig::resolve(path.to_str().unwrap()).unwrap_err()
+        MachineConfig::resolve(path.to_str().unwrap(), None).unwrap_err()
     );
     assert!(e.contains("bad.toml") && e.contains("`l1_wayz`"), "{e}");
-    let e = format!("{:#}", MachineConfig::resolve("no-such-machine").unwrap_err());
+    let e = format!(
+        "{:#}",
+        MachineConfig::resolve("no-such-machine", None).unwrap_err()
+    );
     assert!(e.contains("larrabee-24"), "{e}");
 }
 
@@ -541,7 +544,7 @@ fn decoded_once_replays_equal_streaming_replays() {
     let scene = load("plate.toml", 96, 72);
     let records = counted_records(&scene);
     let decoded = sism::machine::decode(&records);
-    let host = MachineConfig::preset("host").unwrap();
+    let host = sism::host::resolve_machine("host").unwrap();
     let mut small_l3 = host.clone();
     small_l3.l3_kb = 64;
     small_l3.l3_ways = 4;
@@ -564,7 +567,7 @@ fn decoded_once_replays_equal_streaming_replays() {
 /// the new fields keep Larrabee's meaning when a file leaves them out.
 #[test]
 fn host_preset_round_trips_through_toml() {
-    let host = MachineConfig::preset("host").unwrap();
+    let host = sism::host::resolve_machine("host").unwrap();
     let back = MachineConfig::from_toml(&host.to_toml(), "x").unwrap();
     assert_eq!(
         back,

@@ -2,8 +2,8 @@
 
 use std::path::PathBuf;
 
-use sism::machine::calibrate::{self, BENCHES};
-use sism::machine::host;
+use sism::host::calibrate::{self, BENCHES};
+use sism::machine::MachineConfig;
 
 use super::{create_dir, print_stdout, write_file};
 
@@ -18,9 +18,9 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let facts = host::host_facts();
-    let backend = sism_simd::selected_backend();
-    let start = host::host_preset_from(&facts, backend);
+    let facts = sism::host::facts();
+    let backend = facts.backend;
+    let start = MachineConfig::host(facts);
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         create_dir(dir)?;
     }
@@ -40,7 +40,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .config
         .validate()
         .map_err(|(k, e)| anyhow::anyhow!("the fitted model is out of range: `{k}` {e}"))?;
-    write_file(&a.out, &fitted.to_toml(&facts, backend.name()))?;
+    write_file(&a.out, &fitted.to_toml(facts, backend.name()))?;
     if !a.quiet {
         print_stdout(&format!(
             "{} ({} threads, {} backend, {:.2} GHz)\n{}",

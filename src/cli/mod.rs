@@ -8,7 +8,7 @@ mod algorithms;
 mod bench;
 mod calibrate;
 mod compare;
-mod plot;
+mod progress;
 mod render;
 mod replay;
 mod study;
@@ -80,6 +80,7 @@ enum Command {
 
 /// Runs the command line; the process's exit code.
 pub fn main() -> ExitCode {
+    progress::install();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
@@ -226,6 +227,11 @@ fn parse_list(flag: &str, s: &str) -> anyhow::Result<Vec<u32>> {
             Ok(v)
         })
         .collect()
+}
+
+/// `--machine`'s value: a preset (`host` probed once, here at the edge) or a machine file.
+fn resolve_machine(name: &str) -> anyhow::Result<sism::machine::MachineConfig> {
+    Ok(sism::host::resolve_machine(name)?)
 }
 
 /// Creates `dir` (and its parents), with an error naming it.

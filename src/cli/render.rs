@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use sism::machine::{self, MachineConfig};
+use sism::machine;
 use sism::render::{self, RenderOptions};
 
 use super::{algorithm, algorithm_values, ParamArgs, SceneArgs};
@@ -59,7 +59,7 @@ depend on the host's state)"
                 .join(", "),
             algo.name
         );
-        let config = MachineConfig::resolve(&m).context("--machine")?;
+        let config = super::resolve_machine(&m).context("--machine")?;
         let r = render::render_on_machine(&scene, algo, &params, &config, !a.quiet);
         render::write_outputs(&a.out, &scene, &r.result)?;
         machine::write_config(&a.out, &config)?;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use sism::machine::{self, MachineConfig};
+use sism::machine;
 use sism::stats::StatsReport;
 
 use super::{create_dir, print_stdout};
@@ -25,7 +25,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let config = MachineConfig::resolve(&a.machine).context("--machine")?;
+    let config = super::resolve_machine(&a.machine).context("--machine")?;
     let records = machine::load_records(&a.records)?;
     let report = machine::simulate(&records, &config);
     create_dir(&a.out)?;

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use sism::machine::MachineConfig;
 use sism::render;
 use sism::scene::Scene;
 use sism::table2::{self, Row};
@@ -45,7 +44,7 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let algo = algorithm(&a.algo)?;
     let params = a.params.resolve(algo)?;
-    let config = MachineConfig::resolve(&a.machine).context("--machine")?;
+    let config = super::resolve_machine(&a.machine).context("--machine")?;
     let workloads: Vec<PathBuf> = if a.workloads.is_empty() {
         DEFAULT_WORKLOADS.iter().map(PathBuf::from).collect()
     } else {

@@ -1,12 +1,11 @@
 //! `sism validate`: the machine model's per-phase predictions against measured host times.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 
-use sism::machine::MachineConfig;
+use sism::host::validate::{self, Row};
 use sism::scene::Scene;
-use sism::validate::{self, Row};
 
 use super::{algorithm, create_dir, parse_list, print_stdout, write_file, ParamArgs};
 
@@ -57,7 +56,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--tolerance {}: must be in (0, 10)",
         a.tolerance
     );
-    let model = MachineConfig::resolve(&a.machine).context("--machine")?;
+    let model = super::resolve_machine(&a.machine).context("--machine")?;
     let all = std::thread::available_parallelism()
         .map(|n| n.get() as u32)
         .unwrap_or(1);
@@ -112,7 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 &threads,
                 a.frames,
                 &|what| {
-                    bar.set_message(what.to_string());
+                    bar.set_message(what);
                     bar.inc(1);
                 },
             )?);
@@ -130,96 +129,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     write_file(&out.join("validate.csv"), &validate::csv(&rows))?;
     write_file(&out.join("validate.md"), &md)?;
-    plot(&out.join("validate.png"), &rows, a.tolerance)?;
+    sism::output::plots::validate::predicted_vs_measured(&out.join("validate.png"), &rows, a.tolerance)?;
     if !a.quiet {
         print_stdout(md.trim_end())?;
         eprintln!("wrote {}", out.display());
     }
     Ok(())
-}
-
-/// Predicted against measured ms, log–log, one point per major phase and frame, the ±tolerance band.
-fn plot(path: &Path, rows: &[Row], tolerance: f64) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    super::plot::register_fonts();
-    let points: Vec<(&Row, f64)> = rows
-        .iter()
-        .filter(|r| r.is_major() || r.phase == "frame")
-        .filter_map(|r| r.predicted_ms.map(|p| (r, p)))
-        .filter(|(r, p)| r.measured_ms > 0.0 && *p > 0.0)
-        .collect();
-    let lo = points
-        .iter()
-        .map(|(r, p)| r.measured_ms.min(*p))
-        .fold(f64::INFINITY, f64::min)
-        .max(1e-3)
-        * 0.7;
-    let hi = points
-        .iter()
-        .map(|(r, p)| r.measured_ms.max(*p))
-        .fold(lo * 10.0, f64::max)
-        * 1.4;
-    let mut buf = super::plot::canvas();
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, super::plot::PLOT_SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                "machine model against the host: predicted vs measured ms",
-                ("sans-serif", 24),
-            )
-            .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d((lo..hi).log_scale(), (lo..hi).log_scale())
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc("measured host ms")
-            .y_desc("model ms")
-            .label_style(("sans-serif", 16))
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        let line = |k: f64| {
-            (0..=50).map(move |i| {
-                let x = lo * (hi / lo).powf(i as f64 / 50.0);
-                (x, x * k)
-            })
-        };
-        chart
-            .draw_series(LineSeries::new(line(1.0), BLACK))
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .label("model = host");
-        for k in [1.0 + tolerance, 1.0 / (1.0 + tolerance)] {
-            chart
-                .draw_series(LineSeries::new(line(k), BLACK.mix(0.3)))
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-        }
-        let series: Vec<&str> = validate::MAJOR_PHASES.iter().copied().chain(["frame"]).collect();
-        for (i, name) in series.iter().enumerate() {
-            let (r, g, b) = super::plot::PALETTE[i % super::plot::PALETTE.len()];
-            let colour = RGBColor(r, g, b);
-            chart
-                .draw_series(
-                    points
-                        .iter()
-                        .filter(|(row, _)| row.phase == *name)
-                        .map(|(row, p)| {
-                            let style = if row.threads == 1 {
-                                colour.filled()
-                            } else {
-                                colour.stroke_width(2)
-                            };
-                            Circle::new((row.measured_ms, *p), 6, style)
-                        }),
-                )
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .label(format!("{name} (filled: 1 thread)"))
-                .legend(move |(x, y)| Circle::new((x, y), 6, colour.filled()));
-        }
-        super::plot::legend(&mut chart, SeriesLabelPosition::UpperLeft)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    super::plot::save(path, buf)
 }

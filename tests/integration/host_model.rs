@@ -1,11 +1,9 @@
-//! The machine model on the host (#17): `sism calibrate` writes a machine file the CLI accepts,
+//! The machine model on the host: `sism calibrate` writes a machine file the CLI accepts,
 //! `sism validate` sets the model's predictions against measured host times, and bad input fails
 //! cleanly. Accuracy is the closing note's business (measured in release, on an idle host); these
 //! tests check that the commands work and that their figures are real and consistent.
 
 use std::path::Path;
-
-use sism::machine::MachineConfig;
 
 use super::util::{assert_clean_failure, sism};
 
@@ -24,7 +22,7 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     for bench in ["alu", "copy-l1", "gather-l1-16", "stream-dram", "tasks-1024"] {
         assert!(text.contains(bench), "no `{bench}` in the machine file:\n{text}");
     }
-    let m = MachineConfig::resolve(out.to_str().unwrap()).expect("the fitted file loads");
+    let m = sism::host::resolve_machine(out.to_str().unwrap()).expect("the fitted file loads");
     m.validate().expect("in range");
     let threads = std::thread::available_parallelism().unwrap().get() as u32;
     assert_eq!(

@@ -230,12 +230,12 @@ fn shared_scenes_within_measured_bounds() {
     }
     // Bounds are the figures measured at this size (see the closing notes) with a margin: they pin
     // regressions. The paper's additive composition darkens overlapping foliage (C = 0); the
-    // light-point composition removes that and is held to the issue's 0.03 on the foliage.
+    // light-point composition removes that and is held to 0.03 on the foliage.
     for (name, composition, bound) in [
         ("stanford-bunny.toml", Composition::Additive, 0.006),
         ("palm.toml", Composition::Independent, 0.025),
         ("palm.toml", Composition::Sampled, 0.012),
-        ("japanese-maple.toml", Composition::Sampled, 0.02), // the issue asks 0.03
+        ("japanese-maple.toml", Composition::Sampled, 0.02), // tighter than the 0.03 asked
         ("cornell-box.toml", Composition::Additive, 0.02),
     ] {
         let scene = load(name, 200, 150);

@@ -1,0 +1,1056 @@
+//! `sism calibrate`: fits the `host` preset's per-class costs to microbenchmarks run on this host.
+//!
+//! Each microbenchmark is a kernel on the simd crate's instruction set dominated by one instruction
+//! class or one level of the memory hierarchy ([`BENCHES`]). It runs natively (the host's time, the
+//! median of [`REPEATS`] runs on one thread) and once under the counting context (its counters and
+//! line stream: exactly what a frame's records hold). The model's prediction of a run is its
+//! replay on a one-core machine; every cost the fit sets enters that prediction linearly, so each is
+//! solved in closed form from the benchmark it dominates, holding the others, and the solve is
+//! repeated until the costs settle (Gauss–Seidel; each benchmark depends on one cost mostly).
+//!
+//! The fitted costs: `vector_cycles` (ALU/FMA stream on 8 independent chains: the throughput),
+//! `vector_latency_cycles` (the same operations on one chain: the latency), `load_store_cycles` (streaming loads from
+//! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains the kernel reports with
+//! `scalar_ops`), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
+//! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
+//! `l2_latency`, `l3_latency` and `dram_latency_ns` (streaming loads over arrays that live in L2,
+//! in the shared cache, in DRAM: the effective cost of a line miss as a streaming kernel sees it, with
+//! the prefetchers at work, with `memory_parallelism` held at [`FIT_PARALLELISM`]),
+//! `task_overhead_cycles` and `barrier_cycles` (empty tasks through the frame's own task runner on
+//! all host threads, as frames run them). The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
+//! gathers from L2 and DRAM, streaming stores) are not fitted: their residuals show how well
+//! the fitted model carries over.
+//!
+//! Frames are never used for fitting: `sism validate` checks the fitted model on them.
+
+use std::hint::black_box;
+use std::sync::atomic::AtomicI32;
+use std::time::Instant;
+
+use sism_simd::{Kernel, Mask16, Recorder, Simd, TaskRecord};
+
+use crate::machine::config::MachineConfig;
+use crate::machine::timing;
+
+/// Native runs per benchmark (the median is used).
+pub const REPEATS: usize = 7;
+
+/// The `memory_parallelism` the fit holds (see [`fit`]).
+pub const FIT_PARALLELISM: f64 = 16.0;
+
+/// What a benchmark fits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fits {
+    Vector,
+    /// `vector_latency_cycles`, on one dependency chain.
+    VectorLatency,
+    LoadStore,
+    Compress,
+    Scalar,
+    Transcendental,
+    Gather,
+    Atomic,
+    L2,
+    L3,
+    Dram,
+    TaskOverhead,
+    Barrier,
+    /// Not fitted: a check of the fitted model.
+    Check,
+}
+
+/// One microbenchmark.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bench {
+    /// Name in the report.
+    pub name: &'static str,
+    /// What it measures.
+    pub what: &'static str,
+    pub fits: Fits,
+    kind: Kind,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    /// `iters` rounds of 8 add/mul/fma on `chains` independent dependency chains (1, 2, 4 or 8).
+    Alu {
+        iters: usize,
+        chains: usize,
+    },
+    ScalarChain {
+        iters: usize,
+    },
+    Divide {
+        iters: usize,
+    },
+    /// Gathers (or scatters) from a table of `table` floats, each touching `lines` distinct lines.
+    Gather {
+        table_kb: Level,
+        lines: u32,
+        scatter: bool,
+        count: usize,
+    },
+    Atomic {
+        count: usize,
+    },
+    /// Streaming loads (or stores) over an array of the level's size, `bytes` bytes in all.
+    Stream {
+        level: Level,
+        store: bool,
+        bytes: usize,
+    },
+    Compress {
+        count: usize,
+    },
+    /// `passes` copies of an L1-resident array into another.
+    Copy {
+        passes: usize,
+    },
+    /// `tasks` empty tasks in one step.
+    Tasks {
+        tasks: usize,
+    },
+}
+
+/// A working-set size relative to the host's caches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    L1,
+    L2,
+    L3,
+    Dram,
+}
+
+impl Level {
+    /// The working set that lives in this level of `m`, bytes: a third of L1, half of L2, half of
+    /// the shared cache, eight times the largest cache (at least 64 MiB) for DRAM.
+    pub fn bytes(self, m: &MachineConfig) -> usize {
+        let kb = |k: u32| k as usize * 1024;
+        match self {
+            Level::L1 => kb(m.l1_kb) / 3,
+            Level::L2 => kb(m.l2_kb) / 2,
+            Level::L3 => kb(m.l3_kb.max(m.l2_kb * 4)) / 2,
+            Level::Dram => (kb(m.l3_kb.max(m.l2_kb)) * 8).max(64 << 20),
+        }
+    }
+}
+
+/// The benchmarks, in fitting order.
+pub const BENCHES: &[Bench] = &[
+    Bench {
+        name: "alu",
+        what: "16-lane add/mul/fma, 8 independent chains",
+        fits: Fits::Vector,
+        kind: Kind::Alu {
+            iters: 200_000,
+            chains: 8,
+        },
+    },
+    Bench {
+        name: "alu-chain-1",
+        what: "16-lane add/mul/fma, one dependency chain (latency bound)",
+        fits: Fits::VectorLatency,
+        kind: Kind::Alu {
+            iters: 50_000,
+            chains: 1,
+        },
+    },
+    Bench {
+        name: "copy-l1",
+        what: "loads and stores, copying within L1",
+        fits: Fits::LoadStore,
+        kind: Kind::Copy { passes: 4000 },
+    },
+    Bench {
+        name: "compress",
+        what: "compress-stores of random masks",
+        fits: Fits::Compress,
+        kind: Kind::Compress { count: 200_000 },
+    },
+    Bench {
+        name: "scalar",
+        what: "four coupled integer chains (multiply, add, rotate, xor)",
+        fits: Fits::Scalar,
+        kind: Kind::ScalarChain { iters: 1_000_000 },
+    },
+    Bench {
+        name: "divide",
+        what: "16-lane div and sqrt, 4 independent chains",
+        fits: Fits::Transcendental,
+        kind: Kind::Divide { iters: 50_000 },
+    },
+    Bench {
+        name: "gather-l1-16",
+        what: "gathers from an L1 table, 16 lines each",
+        fits: Fits::Gather,
+        kind: Kind::Gather {
+            table_kb: Level::L1,
+            lines: 16,
+            scatter: false,
+            count: 100_000,
+        },
+    },
+    Bench {
+        name: "scatter-l1-16",
+        what: "scatters into an L1 table, 16 lines each",
+        fits: Fits::Gather,
+        kind: Kind::Gather {
+            table_kb: Level::L1,
+            lines: 16,
+            scatter: true,
+            count: 100_000,
+        },
+    },
+    Bench {
+        name: "atomic",
+        what: "16-lane fetch-adds into an L1 table",
+        fits: Fits::Atomic,
+        kind: Kind::Atomic { count: 50_000 },
+    },
+    Bench {
+        name: "stream-l2",
+        what: "streaming loads over an L2-sized array",
+        fits: Fits::L2,
+        kind: Kind::Stream {
+            level: Level::L2,
+            store: false,
+            bytes: 64 << 20,
+        },
+    },
+    Bench {
+        name: "stream-l3",
+        what: "streaming loads over an array in the shared cache",
+        fits: Fits::L3,
+        kind: Kind::Stream {
+            level: Level::L3,
+            store: false,
+            bytes: 64 << 20,
+        },
+    },
+    Bench {
+        name: "stream-dram",
+        what: "streaming loads over an array in DRAM",
+        fits: Fits::Dram,
+        kind: Kind::Stream {
+            level: Level::Dram,
+            store: false,
+            bytes: 64 << 20,
+        },
+    },
+    Bench {
+        name: "tasks-1",
+        what: "one empty task in a step (the join)",
+        fits: Fits::Barrier,
+        kind: Kind::Tasks { tasks: 1 },
+    },
+    Bench {
+        name: "tasks-1024",
+        what: "1024 empty tasks in a step",
+        fits: Fits::TaskOverhead,
+        kind: Kind::Tasks { tasks: 1024 },
+    },
+    Bench {
+        name: "stream-l1",
+        what: "streaming loads over an L1-sized array",
+        fits: Fits::Check,
+        kind: Kind::Stream {
+            level: Level::L1,
+            store: false,
+            bytes: 64 << 20,
+        },
+    },
+    Bench {
+        name: "alu-chain-2",
+        what: "16-lane add/mul/fma, 2 independent chains",
+        fits: Fits::Check,
+        kind: Kind::Alu {
+            iters: 100_000,
+            chains: 2,
+        },
+    },
+    Bench {
+        name: "gather-l1-1",
+        what: "gathers from an L1 table, 1 line each",
+        fits: Fits::Check,
+        kind: Kind::Gather {
+            table_kb: Level::L1,
+            lines: 1,
+            scatter: false,
+            count: 100_000,
+        },
+    },
+    Bench {
+        name: "gather-l1-4",
+        what: "gathers from an L1 table, 4 lines each",
+        fits: Fits::Check,
+        kind: Kind::Gather {
+            table_kb: Level::L1,
+            lines: 4,
+            scatter: false,
+            count: 100_000,
+        },
+    },
+    Bench {
+        name: "gather-l2-16",
+        what: "gathers from an L2 table, 16 lines each",
+        fits: Fits::Check,
+        kind: Kind::Gather {
+            table_kb: Level::L2,
+            lines: 16,
+            scatter: false,
+            count: 100_000,
+        },
+    },
+    Bench {
+        name: "gather-dram-16",
+        what: "gathers from a DRAM table, 16 lines each",
+        fits: Fits::Check,
+        kind: Kind::Gather {
+            table_kb: Level::Dram,
+            lines: 16,
+            scatter: false,
+            count: 50_000,
+        },
+    },
+    Bench {
+        name: "store-dram",
+        what: "streaming stores over an array in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Stream {
+            level: Level::Dram,
+            store: true,
+            bytes: 64 << 20,
+        },
+    },
+];
+
+/// A benchmark's measurement.
+#[derive(Clone, Debug)]
+pub struct Measured {
+    pub bench: Bench,
+    /// Median host time of one run, ns.
+    pub host_ns: f64,
+    /// Its records (one task per run; `tasks` empty tasks for the task benchmarks).
+    pub tasks: Vec<TaskRecord>,
+}
+
+/// Deterministic pseudo-random numbers (the benchmarks' indices and masks).
+fn lcg(state: &mut u64) -> u32 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*state >> 33) as u32
+}
+
+/// Gather indices: `count` vectors, each touching `lines` distinct lines of a table of `n` floats.
+fn gather_indices(n: usize, lines: u32, count: usize) -> Vec<i32> {
+    let table_lines = (n / 16).max(1) as u32;
+    let mut st = 0x5151_u64;
+    let mut out = Vec::with_capacity(count * 16);
+    for _ in 0..count {
+        let base: Vec<u32> = (0..lines).map(|_| lcg(&mut st) % table_lines).collect();
+        for lane in 0..16u32 {
+            let line = base[(lane % lines) as usize];
+            out.push((line * 16 + lcg(&mut st) % 16) as i32);
+        }
+    }
+    out
+}
+
+impl Kind {
+    /// Independent chains the benchmark's vector ALU operations form (read off its kernel below).
+    fn chains(self) -> usize {
+        match self {
+            Kind::Alu { chains, .. } => chains,
+            // Four accumulators.
+            Kind::Copy { .. } | Kind::Stream { .. } => 4,
+            // One accumulator, or no ALU work to speak of.
+            _ => 1,
+        }
+    }
+}
+
+/// `CHAINS` independent dependency chains (1, 2, 4 or 8) through the same 8 operations per round:
+/// the host runs them at its throughput with 8 and at its latency with 1; the model, which knows no
+/// dependencies, charges both the same per operation.
+struct AluK<const CHAINS: usize> {
+    iters: usize,
+    seed: f32,
+}
+impl<const CHAINS: usize> Kernel for AluK<CHAINS> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let k = s.splat_f(black_box(1.000_001));
+        let c = s.splat_f(black_box(1e-7));
+        let mut a = [s.splat_f(self.seed); 8];
+        for _ in 0..self.iters {
+            a[0] = s.add_f(a[0], c);
+            a[1 % CHAINS] = s.mul_f(a[1 % CHAINS], k);
+            a[2 % CHAINS] = s.fmadd(a[2 % CHAINS], k, c);
+            a[3 % CHAINS] = s.add_f(a[3 % CHAINS], c);
+            a[4 % CHAINS] = s.mul_f(a[4 % CHAINS], k);
+            a[5 % CHAINS] = s.fmadd(a[5 % CHAINS], k, c);
+            a[6 % CHAINS] = s.add_f(a[6 % CHAINS], c);
+            a[7 % CHAINS] = s.fmadd(a[7 % CHAINS], k, c);
+        }
+        let mut sum = a[0];
+        for v in &a[1..CHAINS] {
+            sum = s.add_f(sum, *v);
+        }
+        s.reduce_add_f(sum)
+    }
+}
+
+struct ScalarK {
+    iters: usize,
+}
+impl Kernel for ScalarK {
+    type Output = u32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> u32 {
+        let [mut a, mut b, mut c, mut d] = black_box([1u32, 2, 3, 4]);
+        for _ in 0..self.iters {
+            // Coupled chains of different operations: nothing for the compiler to vectorise.
+            a = a.wrapping_mul(1_664_525).wrapping_add(d >> 3);
+            b = b.rotate_left(7) ^ a;
+            c = c.wrapping_add(b) ^ 0x55aa;
+            d = d.wrapping_mul(22_695_477).wrapping_add(c);
+            // Two multiplies, three adds, a shift, a rotate, two xors, the loop's increment and
+            // branch.
+            s.scalar_ops(11);
+        }
+        a ^ b ^ c ^ d
+    }
+}
+
+struct DivK {
+    iters: usize,
+}
+impl Kernel for DivK {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let d = s.splat_f(black_box(1.000_01));
+        let mut a = [s.splat_f(black_box(2.0)); 4];
+        for _ in 0..self.iters {
+            a[0] = s.div_f(a[0], d);
+            a[1] = s.sqrt_f(a[1]);
+            a[2] = s.div_f(a[2], d);
+            a[3] = s.sqrt_f(a[3]);
+        }
+        s.reduce_add_f(s.add_f(s.add_f(a[0], a[1]), s.add_f(a[2], a[3])))
+    }
+}
+
+struct GatherK<'a> {
+    table: &'a mut [f32],
+    idx: &'a [i32],
+    scatter: bool,
+}
+impl Kernel for GatherK<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let mut acc = s.splat_f(0.0);
+        let one = s.splat_f(1.0);
+        for chunk in self.idx.chunks_exact(16) {
+            let i = s.load_i(chunk);
+            if self.scatter {
+                s.mask_scatter_f(self.table, Mask16(0xFFFF), i, one);
+            } else {
+                acc = s.add_f(acc, s.gather_f(self.table, i));
+            }
+        }
+        s.reduce_add_f(acc)
+    }
+}
+
+struct AtomicK<'a> {
+    table: &'a [AtomicI32],
+    idx: &'a [i32],
+}
+impl Kernel for AtomicK<'_> {
+    type Output = i32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> i32 {
+        let one = s.splat_i(1);
+        let mut acc = s.splat_i(0);
+        for chunk in self.idx.chunks_exact(16) {
+            let i = s.load_i(chunk);
+            acc = s.add_i(acc, s.atomic_fetch_add_i(self.table, Mask16(0xFFFF), i, one));
+        }
+        s.reduce_add_i(acc)
+    }
+}
+
+struct StreamK<'a> {
+    data: &'a mut [f32],
+    passes: usize,
+    store: bool,
+}
+impl Kernel for StreamK<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let mut a = [s.splat_f(0.0); 4];
+        let v = s.splat_f(black_box(0.5));
+        for _ in 0..self.passes {
+            if self.store {
+                for c in self.data.chunks_exact_mut(16) {
+                    s.store_f(c, v);
+                }
+            } else {
+                for c in self.data.chunks_exact(64) {
+                    a[0] = s.add_f(a[0], s.load_f(&c[0..16]));
+                    a[1] = s.add_f(a[1], s.load_f(&c[16..32]));
+                    a[2] = s.add_f(a[2], s.load_f(&c[32..48]));
+                    a[3] = s.add_f(a[3], s.load_f(&c[48..64]));
+                }
+            }
+        }
+        s.reduce_add_f(s.add_f(s.add_f(a[0], a[1]), s.add_f(a[2], a[3])))
+    }
+}
+
+struct CompressK<'a> {
+    out: &'a mut [f32],
+    masks: &'a [u16],
+}
+impl Kernel for CompressK<'_> {
+    type Output = usize;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> usize {
+        let v = s.splat_f(black_box(3.0));
+        let mut at = 0;
+        for &m in self.masks {
+            // Restart at the front before the buffer could overflow: it stays in L1.
+            if at + 16 > self.out.len() {
+                at = 0;
+            }
+            at += s.compress_store_f(&mut self.out[at..], Mask16(m), v);
+        }
+        at
+    }
+}
+
+struct CopyK<'a> {
+    from: &'a [f32],
+    to: &'a mut [f32],
+    passes: usize,
+}
+impl Kernel for CopyK<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        for _ in 0..self.passes {
+            for (a, b) in self.from.chunks_exact(16).zip(self.to.chunks_exact_mut(16)) {
+                s.store_f(b, s.load_f(a));
+            }
+            black_box(&mut *self.to);
+        }
+        self.to[0]
+    }
+}
+
+struct EmptyK;
+impl Kernel for EmptyK {
+    type Output = u32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> u32 {
+        s.scalar_ops(1);
+        black_box(1)
+    }
+}
+
+/// Runs `bench` on `m`'s sizes: natively [`REPEATS`] times on one host thread (median), and once
+/// counted.
+pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
+    // Steps run on every modelled core's host thread, as frames do.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(m.cores as usize)
+        .build()
+        .expect("a pool of the host's threads");
+    let time = |f: &mut dyn FnMut()| {
+        f(); // warm: caches, pages
+        let mut t: Vec<f64> = (0..REPEATS)
+            .map(|_| {
+                let t0 = Instant::now();
+                f();
+                t0.elapsed().as_secs_f64() * 1e9
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        t[REPEATS / 2]
+    };
+    let counted = |f: &mut dyn FnMut(&Recorder)| {
+        let rec = Recorder::new();
+        f(&rec);
+        rec.take_tasks()
+    };
+    let (host_ns, tasks) = match bench.kind {
+        Kind::Alu { iters, chains } => {
+            // One instance per chain count (a const parameter, so the rounds compile to straight
+            // chains); the same kernel counted.
+            fn alu<const C: usize>(iters: usize, r: Option<&Recorder>) -> f32 {
+                let k = AluK::<C> { iters, seed: 1.0 };
+                match r {
+                    None => sism_simd::run_native(k),
+                    Some(r) => sism_simd::run_counting(r, k),
+                }
+            }
+            let f: fn(usize, Option<&Recorder>) -> f32 = match chains {
+                1 => alu::<1>,
+                2 => alu::<2>,
+                4 => alu::<4>,
+                _ => alu::<8>,
+            };
+            (
+                time(&mut || {
+                    black_box(f(iters, None));
+                }),
+                counted(&mut |r| {
+                    f(iters, Some(r));
+                }),
+            )
+        }
+        Kind::ScalarChain { iters } => (
+            time(&mut || {
+                black_box(sism_simd::run_native(ScalarK { iters }));
+            }),
+            counted(&mut |r| {
+                sism_simd::run_counting(r, ScalarK { iters });
+            }),
+        ),
+        Kind::Divide { iters } => (
+            time(&mut || {
+                black_box(sism_simd::run_native(DivK { iters }));
+            }),
+            counted(&mut |r| {
+                sism_simd::run_counting(r, DivK { iters });
+            }),
+        ),
+        Kind::Gather {
+            table_kb,
+            lines,
+            scatter,
+            count,
+        } => {
+            let n = (table_kb.bytes(m) / 4).max(256) / 16 * 16;
+            let mut table = vec![1.0f32; n];
+            let idx = gather_indices(n, lines, count);
+            let ns = time(&mut || {
+                black_box(sism_simd::run_native(GatherK {
+                    table: &mut table,
+                    idx: &idx,
+                    scatter,
+                }));
+            });
+            let tasks = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    GatherK {
+                        table: &mut table,
+                        idx: &idx,
+                        scatter,
+                    },
+                );
+            });
+            (ns, tasks)
+        }
+        Kind::Atomic { count } => {
+            let n = (Level::L1.bytes(m) / 4).max(256) / 16 * 16;
+            let table: Vec<AtomicI32> = (0..n).map(|_| AtomicI32::new(0)).collect();
+            let idx = gather_indices(n, 16, count);
+            let ns = time(&mut || {
+                black_box(sism_simd::run_native(AtomicK {
+                    table: &table,
+                    idx: &idx,
+                }));
+            });
+            let tasks = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    AtomicK {
+                        table: &table,
+                        idx: &idx,
+                    },
+                );
+            });
+            (ns, tasks)
+        }
+        Kind::Stream { level, store, bytes } => {
+            let n = (level.bytes(m) / 4).max(1024) / 64 * 64;
+            let mut data = vec![1.0f32; n];
+            let passes = (bytes / (n * 4)).max(1);
+            let ns = time(&mut || {
+                black_box(sism_simd::run_native(StreamK {
+                    data: &mut data,
+                    passes,
+                    store,
+                }));
+            });
+            let tasks = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    StreamK {
+                        data: &mut data,
+                        passes,
+                        store,
+                    },
+                );
+            });
+            (ns, tasks)
+        }
+        Kind::Compress { count } => {
+            let mut out = vec![0.0f32; 1024];
+            let mut st = 7u64;
+            let masks: Vec<u16> = (0..count).map(|_| lcg(&mut st) as u16).collect();
+            let ns = time(&mut || {
+                black_box(sism_simd::run_native(CompressK {
+                    out: &mut out,
+                    masks: &masks,
+                }));
+            });
+            let tasks = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    CompressK {
+                        out: &mut out,
+                        masks: &masks,
+                    },
+                );
+            });
+            (ns, tasks)
+        }
+        Kind::Copy { passes } => {
+            let n = (Level::L1.bytes(m) / 8).max(256) / 16 * 16;
+            let from = vec![1.0f32; n];
+            let mut to = vec![0.0f32; n];
+            let ns = time(&mut || {
+                black_box(sism_simd::run_native(CopyK {
+                    from: &from,
+                    to: &mut to,
+                    passes,
+                }));
+            });
+            let tasks = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    CopyK {
+                        from: &from,
+                        to: &mut to,
+                        passes: passes / 10,
+                    },
+                );
+            });
+            // The counted run did a tenth of the passes (the records' size): scale its time.
+            (ns / 10.0, tasks)
+        }
+        Kind::Tasks { tasks } => {
+            // Through the frame's own task runner, so the host's cost of a step is what frames pay.
+            let step = |exec: crate::exec::Exec| {
+                let mut log = crate::exec::FrameLog::new(exec);
+                log.phase("calibrate", "calibration tasks", |p| {
+                    use rayon::prelude::*;
+                    black_box(p.run_par("tasks", (0..tasks).into_par_iter().map(|_| EmptyK)));
+                });
+                log
+            };
+            let ns = pool.install(|| {
+                time(&mut || {
+                    black_box(step(crate::exec::Exec::Native));
+                })
+            });
+            let mut log = step(crate::exec::Exec::Counting);
+            let recs = log.take_records().into_iter().flat_map(|p| p.tasks).collect();
+            (ns, recs)
+        }
+    };
+    Measured {
+        bench: *bench,
+        host_ns,
+        tasks,
+    }
+}
+
+/// The model's prediction of one run of `x`, cycles: on a one-core `m`, or for the task benchmarks
+/// (a step of empty tasks on every host thread, its join included) on `m`'s cores.
+pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
+    let mut one = m.clone();
+    let is_step = matches!(x.bench.kind, Kind::Tasks { .. });
+    // A benchmark's dependency chains are known (the frames' are the config's assumption).
+    one.vector_chains = x.bench.kind.chains() as f64;
+    if !is_step {
+        one.cores = 1;
+        one.barrier_cycles = 0;
+        one.task_overhead_cycles = 0.0;
+    }
+    let phases = timing::simulate_frame(&one, &[("bench", &x.tasks)]);
+    phases[0].cycles as f64
+}
+
+/// A fitted host model and the evidence.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    pub config: MachineConfig,
+    /// Per benchmark: measured and predicted ns of one run, after the fit.
+    pub rows: Vec<(Bench, f64, f64)>,
+}
+
+/// Fits `start`'s costs to `measured` (see the module docs). Deterministic given the measurements.
+pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
+    let mut m = start.clone();
+    // Streaming misses overlap (out-of-order issue, prefetchers); with the overlap fixed at
+    // `FIT_PARALLELISM` the fitted latencies are per-miss figures in whole cycles, not fractions.
+    m.memory_parallelism = FIT_PARALLELISM;
+    m.atomic_conflict_cycles = 0;
+    m.gather_cycles_per_line = 0;
+    let ghz = m.clock_ghz;
+    // Solves cost `set(m, c)` so that benchmark `x`'s prediction meets its measurement: the
+    // prediction is affine in the cost, so two evaluations give the line.
+    // The prediction is piecewise affine in each cost (a DRAM bandwidth bound or a max of ports
+    // can hide it), so the secant step is repeated from its own answer.
+    let solve =
+        |m: &mut MachineConfig, x: &Measured, lo: f64, hi: f64, set: &dyn Fn(&mut MachineConfig, f64)| {
+            let target = x.host_ns * ghz;
+            let (mut a, mut b) = (lo.max(0.0), (lo.max(0.0) + hi) / 2.0);
+            for _ in 0..4 {
+                set(m, a);
+                let pa = predict(x, m);
+                set(m, b);
+                let pb = predict(x, m);
+                let slope = (pb - pa) / (b - a);
+                let c = if slope > 0.0 {
+                    (a + (target - pa) / slope).clamp(lo, hi)
+                } else {
+                    b
+                };
+                set(m, c);
+                if (c - a).abs() <= 1e-3 * c.abs().max(1.0) {
+                    break;
+                }
+                (a, b) = (c, (c * 1.25 + 1.0).min(hi));
+                if b <= a {
+                    break;
+                }
+            }
+        };
+    for _ in 0..4 {
+        for x in measured {
+            match x.bench.fits {
+                Fits::Vector => solve(&mut m, x, 0.01, 100.0, &|m, c| m.vector_cycles = c),
+                Fits::VectorLatency => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.vector_latency_cycles = c),
+                Fits::LoadStore => solve(&mut m, x, 0.01, 100.0, &|m, c| m.load_store_cycles = c),
+                Fits::Compress => solve(&mut m, x, 0.01, 1000.0, &|m, c| m.compress_cycles = c),
+                Fits::Scalar => solve(&mut m, x, 0.01, 100.0, &|m, c| m.scalar_cycles = c),
+                Fits::Transcendental => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
+                    m.transcendental_cycles = c.round().max(1.0) as u32
+                }),
+                // Gathers and scatters share one cost: fitted on their mean below.
+                Fits::Gather => {}
+                Fits::Atomic => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
+                    m.atomic_cycles = c.round().max(1.0) as u32
+                }),
+                Fits::L2 => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.l2_latency = c.round() as u32),
+                Fits::L3 if m.l3_kb > 0 => {
+                    solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.l3_latency = c.round() as u32)
+                }
+                Fits::L3 => {}
+                Fits::Dram => solve(&mut m, x, 0.0, 100_000.0, &|m, c| {
+                    m.dram_latency_ns = (c * 10.0).round() / 10.0
+                }),
+                Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
+                    m.barrier_cycles = c.round() as u32
+                }),
+                Fits::TaskOverhead => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
+                    m.task_overhead_cycles = c.round()
+                }),
+                Fits::Check => {}
+            }
+        }
+        let gathers: Vec<&Measured> = measured.iter().filter(|x| x.bench.fits == Fits::Gather).collect();
+        if !gathers.is_empty() {
+            let mut cs = Vec::new();
+            for x in &gathers {
+                let mut t = m.clone();
+                solve(&mut t, x, 0.01, 10_000.0, &|m, c| m.gather_cycles = c);
+                cs.push(t.gather_cycles);
+            }
+            m.gather_cycles = cs.iter().sum::<f64>() / cs.len() as f64;
+        }
+    }
+    // Rounded for a readable file; each value stays within its documented range.
+    m.vector_cycles = (m.vector_cycles * 1000.0).round().max(10.0) / 1000.0;
+    m.vector_latency_cycles = (m.vector_latency_cycles * 1000.0).round() / 1000.0;
+    m.load_store_cycles = (m.load_store_cycles * 1000.0).round().max(10.0) / 1000.0;
+    m.compress_cycles = (m.compress_cycles * 1000.0).round().max(10.0) / 1000.0;
+    m.scalar_cycles = (m.scalar_cycles * 1000.0).round().max(10.0) / 1000.0;
+    m.gather_cycles = (m.gather_cycles * 100.0).round().max(1.0) / 100.0;
+    m.name = "host-calibrated".into();
+    let rows = measured
+        .iter()
+        .map(|x| (x.bench, x.host_ns, predict(x, &m) / ghz))
+        .collect();
+    Calibration { config: m, rows }
+}
+
+impl Calibration {
+    /// The report: per benchmark what it fits, measured and predicted ns, and the error.
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "{:<16} {:<14} {:>14} {:>14} {:>8}  {}\n",
+            "benchmark", "fits", "measured ns", "model ns", "error", "what"
+        );
+        for (b, meas, pred) in &self.rows {
+            s += &format!(
+                "{:<16} {:<14} {:>14.0} {:>14.0} {:>+7.1}%  {}\n",
+                b.name,
+                format!("{:?}", b.fits).to_lowercase(),
+                meas,
+                pred,
+                100.0 * (pred - meas) / meas.max(1e-9),
+                b.what
+            );
+        }
+        s
+    }
+
+    /// The fitted machine file: every field, with the evidence as comments.
+    pub fn to_toml(&self, facts: &crate::machine::host::HostFacts, backend: &str) -> String {
+        let mut s = format!(
+            "# sism machine file fitted by `sism calibrate` on this host.\n\
+             # CPU: {} (vendor {}, family {}, model {}), {} host threads, SIMD backend {backend}.\n\
+             # Fitted on microbenchmarks only (see sism::machine::calibrate); check it with `sism validate`.\n\
+             # Per benchmark: what it fits, measured and model ns of one run.\n",
+            facts.model_name, facts.vendor, facts.family, facts.model, facts.threads
+        );
+        for line in self.table().lines() {
+            s += &format!("#   {line}\n");
+        }
+        s += &toml::to_string(&self.config).expect("plain struct serialises");
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fit recovers costs from measurements made by the model itself.
+    #[test]
+    fn fit_recovers_a_models_own_costs() {
+        let mut truth = crate::machine::host::host_preset_from(
+            &crate::machine::host::HostFacts {
+                model_name: "test".into(),
+                vendor: "AuthenticAMD".into(),
+                family: 26,
+                model: 2,
+                clock_ghz: 2.0,
+                threads: 1,
+                caches: vec![(1, 32, 8), (2, 512, 8), (3, 4096, 16)],
+                backend: sism_simd::BackendKind::Avx512,
+            },
+            sism_simd::BackendKind::Avx512,
+        );
+        truth.memory_parallelism = FIT_PARALLELISM;
+        truth.vector_cycles = 0.7;
+        truth.vector_latency_cycles = 3.3;
+        truth.load_store_cycles = 0.4;
+        truth.compress_cycles = 3.0;
+        truth.scalar_cycles = 0.35;
+        truth.transcendental_cycles = 9;
+        truth.gather_cycles = 11.0;
+        truth.atomic_cycles = 70;
+        truth.l2_latency = 12;
+        truth.l3_latency = 40;
+        truth.task_overhead_cycles = 1500.0;
+        truth.barrier_cycles = 8000;
+        // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
+        let shrink = |k: Kind| match k {
+            Kind::Alu { chains, .. } => Kind::Alu { iters: 2000, chains },
+            Kind::ScalarChain { .. } => Kind::ScalarChain { iters: 5000 },
+            Kind::Divide { .. } => Kind::Divide { iters: 500 },
+            Kind::Gather {
+                table_kb,
+                lines,
+                scatter,
+                ..
+            } => Kind::Gather {
+                table_kb,
+                lines,
+                scatter,
+                count: 500,
+            },
+            Kind::Atomic { .. } => Kind::Atomic { count: 500 },
+            Kind::Stream { level, store, .. } => Kind::Stream {
+                level,
+                store,
+                bytes: 1 << 20,
+            },
+            Kind::Compress { .. } => Kind::Compress { count: 500 },
+            Kind::Copy { .. } => Kind::Copy { passes: 100 },
+            k => k,
+        };
+        let measured: Vec<Measured> = BENCHES
+            .iter()
+            .filter(|b| b.fits != Fits::Check && b.fits != Fits::Dram)
+            .map(|b| {
+                let b = Bench {
+                    kind: shrink(b.kind),
+                    ..*b
+                };
+                let mut x = measure(&b, &truth);
+                x.host_ns = predict(&x, &truth) / truth.clock_ghz;
+                x
+            })
+            .collect();
+        let mut start = truth.clone();
+        start.vector_cycles = 2.0;
+        start.load_store_cycles = 1.0;
+        start.compress_cycles = 1.0;
+        start.scalar_cycles = 1.0;
+        start.transcendental_cycles = 2;
+        start.gather_cycles = 3.0;
+        start.atomic_cycles = 10;
+        start.l2_latency = 50;
+        start.l3_latency = 100;
+        start.task_overhead_cycles = 0.0;
+        start.barrier_cycles = 0;
+        let c = fit(&start, &measured).config;
+        let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
+        assert!(near(c.vector_cycles, 0.7, 0.02), "vector {}", c.vector_cycles);
+        assert!(
+            near(c.vector_latency_cycles, 3.3, 0.02),
+            "vector latency {}",
+            c.vector_latency_cycles
+        );
+        assert!(near(c.scalar_cycles, 0.35, 0.02), "scalar {}", c.scalar_cycles);
+        assert!(
+            near(c.load_store_cycles, 0.4, 0.02),
+            "load/store {}",
+            c.load_store_cycles
+        );
+        assert!(
+            near(c.compress_cycles, 3.0, 0.02),
+            "compress {}",
+            c.compress_cycles
+        );
+        assert_eq!(c.transcendental_cycles, 9);
+        assert!(near(c.gather_cycles, 11.0, 0.02), "gather {}", c.gather_cycles);
+        assert_eq!(c.atomic_cycles, 70);
+        assert!(c.l2_latency.abs_diff(12) <= 1, "l2 {}", c.l2_latency);
+        assert!(c.l3_latency.abs_diff(40) <= 1, "l3 {}", c.l3_latency);
+        assert!(
+            near(c.task_overhead_cycles, 1500.0, 0.02),
+            "tasks {}",
+            c.task_overhead_cycles
+        );
+        assert!(
+            c.barrier_cycles.abs_diff(8000) <= 20,
+            "barrier {}",
+            c.barrier_cycles
+        );
+        c.validate().expect("fitted config is valid");
+    }
+}

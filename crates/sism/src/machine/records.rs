@@ -1,0 +1,297 @@
+//! The records file (`records.bin`): a frame's task records, saved by `render --machine` and
+//! `study`, re-timed by `replay`. Read as untrusted input: every count is checked against the bytes
+//! that remain before anything is allocated, so a corrupt or hostile file is an error naming the byte
+//! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
+//! the file's size.
+//!
+//! Format, version 2 (little-endian):
+//!
+//! | bytes | what |
+//! |---|---|
+//! | 8 | magic `SISMREC\0` |
+//! | 4 | version (2) |
+//! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
+//! | 8 | total file size, bytes |
+//! | 4 | phase (step) count |
+//! | per step | name length (u32), name (UTF-8), task count (u64), per task its byte length (u64) and [`sism_simd::TaskRecord::to_bytes`] |
+//! | 8 | checksum of every byte before it (see [`checksum`]) |
+//!
+//! **Identical bytes.** Recorded lines are process addresses, which differ from run to run. Saving
+//! replaces them by first-touch ids (the `n`-th distinct line of the frame, in record order, is line
+//! `n`) — exactly the ids the model's caches use — so two counted runs of the same frame write the
+//! same file, byte for byte, and every replay of it is identical to replaying the records in memory.
+
+use std::path::Path;
+
+use sism_simd::{LineStreamEncoder, TaskRecord};
+
+use super::cache::LineIds;
+use crate::exec::PhaseRecords;
+
+const MAGIC: &[u8; 8] = b"SISMREC\0";
+/// The version this sism writes and reads.
+pub const VERSION: u32 = 2;
+/// Flag bit: line ids are first-touch ids.
+const FLAG_FIRST_TOUCH: u32 = 1;
+/// Header bytes before the first step.
+const HEADER: usize = 8 + 4 + 4 + 8 + 4;
+/// Smallest encoded task record (magic, version, kind, field count, 20 one-byte counters, count,
+/// last, stream length), bytes: bounds the task count a length can claim.
+const MIN_TASK_BYTES: u64 = 27;
+/// Most steps a file may hold.
+pub const MAX_STEPS: u64 = 1 << 16;
+/// Longest step name, bytes.
+pub const MAX_NAME_BYTES: usize = 256;
+/// Line accesses a file may hold per byte of its size, and in all: the replay's time and the line-id
+/// table's memory are bounded by the file's size. (A counted japanese-maple frame at 1600×1200 holds
+/// 0.6 accesses per byte.)
+pub const MAX_ACCESSES_PER_BYTE: u64 = 64;
+/// Most line accesses in one file.
+pub const MAX_ACCESSES: u64 = 1 << 38;
+/// Largest sum over a file of any one counter (instructions of a class, lines, lanes): within it and
+/// a validated machine, no cycle count can overflow.
+pub const MAX_COUNTER_TOTAL: u64 = 1 << 40;
+
+/// The checksum of a records file: a multiply-rotate hash over 8-byte little-endian words (the tail
+/// zero-padded), then the length. Catches corruption (flipped bits, truncation, splices), not
+/// tampering.
+pub fn checksum(bytes: &[u8]) -> u64 {
+    const K: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut h: u64 = 0x5155_4D53_4952_4543;
+    let mut chunks = bytes.chunks_exact(8);
+    for c in &mut chunks {
+        let w = u64::from_le_bytes(c.try_into().expect("8 bytes"));
+        h = (h.rotate_left(23) ^ w).wrapping_mul(K);
+    }
+    let mut tail = [0u8; 8];
+    tail[..chunks.remainder().len()].copy_from_slice(chunks.remainder());
+    h = (h.rotate_left(23) ^ u64::from_le_bytes(tail)).wrapping_mul(K);
+    (h ^ bytes.len() as u64).wrapping_mul(K)
+}
+
+/// A frame's records with their lines replaced by first-touch ids in record order (see the module
+/// docs): what a records file holds. They time exactly as the records they came from.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CanonicalRecords(pub Vec<PhaseRecords>);
+
+impl std::ops::Deref for CanonicalRecords {
+    type Target = [PhaseRecords];
+    fn deref(&self) -> &[PhaseRecords] {
+        &self.0
+    }
+}
+
+/// `records` with their lines replaced by first-touch ids in record order.
+pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
+    let mut ids = LineIds::new();
+    CanonicalRecords(
+        records
+            .iter()
+            .map(|p| PhaseRecords {
+                phase: p.phase.clone(),
+                tasks: p
+                    .tasks
+                    .iter()
+                    .map(|t| {
+                        let mut lines = LineStreamEncoder::default();
+                        t.lines
+                            .for_each(|line, write| lines.push(ids.id(line) as u64, write));
+                        TaskRecord {
+                            kind: t.kind,
+                            counters: t.counters,
+                            lines: lines.finish(),
+                        }
+                    })
+                    .collect(),
+            })
+            .collect(),
+    )
+}
+
+/// The bytes of a records file holding `records`.
+pub fn to_bytes(records: &CanonicalRecords) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&FLAG_FIRST_TOUCH.to_le_bytes());
+    out.extend_from_slice(&0u64.to_le_bytes()); // the total size, patched below
+    out.extend_from_slice(&(records.len() as u32).to_le_bytes());
+    for p in records.iter() {
+        out.extend_from_slice(&(p.phase.len() as u32).to_le_bytes());
+        out.extend_from_slice(p.phase.as_bytes());
+        out.extend_from_slice(&(p.tasks.len() as u64).to_le_bytes());
+        for t in &p.tasks {
+            let b = t.to_bytes();
+            out.extend_from_slice(&(b.len() as u64).to_le_bytes());
+            out.extend_from_slice(&b);
+        }
+    }
+    let total = out.len() as u64 + 8;
+    out[16..24].copy_from_slice(&total.to_le_bytes());
+    let sum = checksum(&out);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// Writes `records` to `path` (see the module docs for the format).
+pub fn save_records(path: &Path, records: &CanonicalRecords) -> crate::Result<()> {
+    std::fs::write(path, to_bytes(records)).map_err(|e| crate::Error::write(path, e))
+}
+
+/// Reads a records file written by [`save_records`] (a regular file of at most
+/// [`crate::input::MAX_RECORDS_BYTES`]).
+pub fn load_records(path: &Path) -> crate::Result<CanonicalRecords> {
+    let bytes = crate::input::read_file(path, "records file", crate::input::MAX_RECORDS_BYTES)?;
+    parse_records(&bytes).map_err(|e| crate::Error::invalid(format!("records file {}: {e}", path.display())))
+}
+
+/// A cursor over untrusted bytes whose reads fail (naming the offset) instead of panicking.
+struct Reader<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+        if self.b.len() - self.pos < n {
+            return Err(format!(
+                "truncated at byte {}: {what} needs {n} bytes, {} remain",
+                self.pos,
+                self.b.len() - self.pos
+            ));
+        }
+        self.pos += n;
+        Ok(&self.b[self.pos - n..self.pos])
+    }
+    fn u32(&mut self, what: &str) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(
+            self.take(4, what)?.try_into().expect("4 bytes"),
+        ))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(
+            self.take(8, what)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn remaining(&self) -> u64 {
+        (self.b.len() - self.pos) as u64
+    }
+}
+
+/// Parses the bytes of a records file (see the module docs), checking everything.
+pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
+    if b.len() < 8 || &b[..8] != MAGIC {
+        return Err("not a sism records file (bad magic)".into());
+    }
+    let mut r = Reader { b, pos: 8 };
+    let version = r.u32("the version")?;
+    if version != VERSION {
+        return Err(if version > VERSION {
+            format!("version {version} is newer than this sism reads ({VERSION}): use a newer sism")
+        } else {
+            format!("version {version} is older than this sism reads ({VERSION}): record the frame again")
+        });
+    }
+    let flags = r.u32("the flags")?;
+    if flags != FLAG_FIRST_TOUCH {
+        return Err(format!("unknown flags {flags:#x} at byte 12"));
+    }
+    let total = r.u64("the total size")?;
+    if total != b.len() as u64 {
+        return Err(format!(
+            "the header says {total} bytes but the file has {}: truncated or padded",
+            b.len()
+        ));
+    }
+    if b.len() < HEADER + 8 {
+        return Err(format!(
+            "truncated: {} bytes, a header needs {}",
+            b.len(),
+            HEADER + 8
+        ));
+    }
+    let (body, sum) = b.split_at(b.len() - 8);
+    if checksum(body) != u64::from_le_bytes(sum.try_into().expect("8 bytes")) {
+        return Err("checksum mismatch: the file is corrupt".into());
+    }
+    let mut r = Reader { b: body, pos: r.pos };
+    let steps = r.u32("the step count")? as u64;
+    if steps > MAX_STEPS || steps > r.remaining() / 12 {
+        return Err(format!(
+            "{steps} steps claimed at byte 24; at most {} fit the file",
+            MAX_STEPS.min(r.remaining() / 12)
+        ));
+    }
+    let access_budget = (MAX_ACCESSES_PER_BYTE.saturating_mul(b.len() as u64)).min(MAX_ACCESSES);
+    let mut accesses = 0u64;
+    let mut next_id = 0u64;
+    let mut totals = [0u64; sism_simd::Counters::FIELDS.len()];
+    let mut out = Vec::with_capacity(steps as usize);
+    for s in 0..steps {
+        let at = r.pos;
+        let len = r.u32("a step name's length")? as usize;
+        if len > MAX_NAME_BYTES {
+            return Err(format!(
+                "step {s} at byte {at}: a name of {len} bytes (at most {MAX_NAME_BYTES})"
+            ));
+        }
+        let phase = std::str::from_utf8(r.take(len, "a step name")?)
+            .map_err(|_| format!("step {s} at byte {at}: the name is not UTF-8"))?
+            .to_string();
+        let tasks = r.u64("a task count")?;
+        if tasks > r.remaining() / (8 + MIN_TASK_BYTES) {
+            return Err(format!(
+                "step {s} ({phase}) at byte {at}: {tasks} tasks claimed, at most {} fit the bytes left",
+                r.remaining() / (8 + MIN_TASK_BYTES)
+            ));
+        }
+        let mut list = Vec::with_capacity(tasks as usize);
+        for i in 0..tasks {
+            let at = r.pos;
+            let len = r.u64("a task's length")?;
+            if len > r.remaining() {
+                return Err(format!(
+                    "step {s} ({phase}), task {i} at byte {at}: {len} bytes claimed, {} remain",
+                    r.remaining()
+                ));
+            }
+            let bytes = r.take(len as usize, "a task")?;
+            let (t, used) = TaskRecord::from_bytes(bytes)
+                .map_err(|e| format!("step {s} ({phase}), task {i} at byte {at}: {e}"))?;
+            if used as u64 != len {
+                return Err(format!(
+                    "step {s} ({phase}), task {i} at byte {at}: length mismatch"
+                ));
+            }
+            for (total, v) in totals.iter_mut().zip(t.counters.values()) {
+                *total = total.saturating_add(v);
+                if *total > MAX_COUNTER_TOTAL {
+                    return Err(format!(
+                        "step {s} ({phase}), task {i} at byte {at}: counters beyond {MAX_COUNTER_TOTAL} in total"
+                    ));
+                }
+            }
+            // Lines: every id is one seen before or the next new one (first-touch order).
+            let n = t
+                .lines
+                .try_for_each(access_budget - accesses, |line, _| {
+                    if line < next_id {
+                        true
+                    } else if line == next_id {
+                        next_id += 1;
+                        true
+                    } else {
+                        false
+                    }
+                })
+                .map_err(|e| format!("step {s} ({phase}), task {i} at byte {at}: {e}"))?;
+            accesses += n;
+            list.push(t);
+        }
+        out.push(PhaseRecords { phase, tasks: list });
+    }
+    if r.remaining() != 0 {
+        return Err(format!("{} trailing bytes before the checksum", r.remaining()));
+    }
+    Ok(CanonicalRecords(out))
+}

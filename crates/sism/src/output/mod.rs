@@ -1,0 +1,36 @@
+//! Files a render writes (CONTRACTS.md "Images written by a render") and reads back. The statistics'
+//! files are written by [`crate::stats::StatsReport::write`].
+
+pub mod pfm;
+pub mod pictures;
+pub mod plots;
+
+use std::io::Write;
+use std::path::Path;
+
+/// Writes `bytes` to `path` whole or not at all: through a temporary file in the same folder, synced
+/// and renamed over `path`, so that no reader (a later run, a watching `collect`) sees a partial
+/// file under the name.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> crate::Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        crate::Error::write(path, e)
+    })
+}
+
+/// Writes `image` to `path` as PNG (encoded in memory, then [`write_atomic`]).
+pub fn save_png(path: &Path, image: &image::RgbImage) -> crate::Result<()> {
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+        .map_err(|e| crate::Error::write(path, std::io::Error::other(e)))?;
+    write_atomic(path, &bytes)
+}

@@ -1,0 +1,213 @@
+//! Architecture studies: one frame counted once, re-timed on many machines (cores, threads per core,
+//! L2 size around a base machine); the points, `study.csv` and the plots `speedup.png` and
+//! `phases.png`.
+//!
+//! Two backends share everything but where the replays run: in this process ([`run_local`]), or as
+//! a study directory replayed by a job array ([`slurm`]: manifest, records, one machine file per
+//! point, a job script, the tasks' results, and `collect`'s merge, with the scheduler behind the
+//! [`scheduler::Scheduler`] trait). Both end in [`write_outputs`], from [`Point`]s, so `study.csv`
+//! is the same bytes either way.
+
+pub mod scheduler;
+pub mod slurm;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::machine::sweep::{self, SweepPoint};
+use crate::machine::{CanonicalRecords, MachineConfig, PhaseReport};
+use crate::output::plots::study as plots;
+
+/// Replays `records` on every configuration in this process (`on_point` after each), as points in
+/// sweep order.
+pub fn run_local(
+    records: &CanonicalRecords,
+    configs: &[MachineConfig],
+    on_point: impl Fn() + Sync,
+) -> Vec<Point> {
+    sweep::run(records, configs, on_point)
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Point::new(i, p))
+        .collect()
+}
+
+/// What the plots' titles name: the scene (its file's stem) and the image size.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Label {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// One simulated configuration as the study's outputs need it: what `study.csv`, the plots and the
+/// table read, and what a Slurm array task writes to its result file (floats round-trip exactly
+/// through JSON, so a point read back writes the same bytes as the point computed).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Point {
+    /// Position in the sweep (the manifest's point index).
+    pub index: usize,
+    /// The configuration's name (`<base>-c<cores>-t<threads>-l2<kb>`).
+    pub name: String,
+    pub cores: u32,
+    pub threads: u32,
+    pub l2_kb: u32,
+    pub clock_ghz: f64,
+    /// One row per step, in frame order.
+    pub steps: Vec<Row>,
+    /// One row per phase (its steps' group), in frame order.
+    pub groups: Vec<Row>,
+    /// The frame's totals.
+    pub frame: Row,
+}
+
+/// One step, phase or frame of a [`Point`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Row {
+    pub phase: String,
+    pub tasks: u64,
+    pub cycles: u64,
+    pub ms: f64,
+    pub stack: Stack,
+    pub lane_utilisation: f64,
+    pub l1_miss_rate: f64,
+    pub l2_miss_rate: f64,
+    pub bytes_dram: u64,
+}
+
+/// A row's cycle stack (as [`crate::machine::CycleStack`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stack {
+    pub issue: u64,
+    pub memory: u64,
+    pub atomics_sync: u64,
+    pub imbalance_idle: u64,
+}
+
+impl Stack {
+    /// Part names and values, in order.
+    pub fn parts(&self) -> [(&'static str, u64); 4] {
+        [
+            ("issue", self.issue),
+            ("memory", self.memory),
+            ("atomics_sync", self.atomics_sync),
+            ("imbalance_idle", self.imbalance_idle),
+        ]
+    }
+}
+
+impl Point {
+    /// The point at `index` of a sweep.
+    pub fn new(index: usize, p: &SweepPoint) -> Point {
+        let r = &p.report;
+        let line = r.config.line_bytes;
+        let row = |ph: &PhaseReport| Row {
+            phase: ph.phase.clone(),
+            tasks: ph.tasks,
+            cycles: ph.cycles,
+            ms: ph.ms,
+            stack: Stack {
+                issue: ph.stack.issue,
+                memory: ph.stack.memory,
+                atomics_sync: ph.stack.atomics_sync,
+                imbalance_idle: ph.stack.imbalance_idle,
+            },
+            lane_utilisation: ph.lane_utilisation(),
+            l1_miss_rate: ph.memory.l1_miss_rate(),
+            l2_miss_rate: ph.memory.l2_miss_rate(),
+            bytes_dram: ph.memory.dram_bytes(line),
+        };
+        Point {
+            index,
+            name: r.config.name.clone(),
+            cores: p.cores,
+            threads: p.threads,
+            l2_kb: p.l2_kb,
+            clock_ghz: r.config.clock_ghz,
+            steps: r.phases.iter().map(row).collect(),
+            groups: r.groups.iter().map(row).collect(),
+            frame: row(&r.frame),
+        }
+    }
+}
+
+/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
+pub fn speedup(points: &[Point], p: &Point) -> f64 {
+    let base = points
+        .iter()
+        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb)
+        .min_by_key(|q| q.cores)
+        .unwrap_or(p);
+    base.frame.cycles as f64 / p.frame.cycles.max(1) as f64
+}
+
+/// The study's outputs in `out`, whichever backend computed `points` (in sweep order): `study.csv`,
+/// `speedup.png`, `phases.png` (of the base machine's point) and, unless `quiet`, the table.
+pub fn write_outputs(out: &Path, label: &Label, base: &MachineConfig, points: &[Point]) -> crate::Result<()> {
+    crate::output::write_atomic(&out.join("study.csv"), csv(points).as_bytes())?;
+    plots::speedup(&out.join("speedup.png"), label, points)?;
+    let table_point = points
+        .iter()
+        .find(|p| p.cores == base.cores && p.threads == base.threads_per_core && p.l2_kb == base.l2_kb)
+        .or_else(|| points.iter().find(|p| p.cores == base.cores))
+        .or(points.last())
+        .ok_or_else(|| crate::Error::invalid("the sweep has no point"))?;
+    plots::phases(&out.join("phases.png"), label, table_point)
+}
+
+/// The study's table: frame time and speedup per point.
+pub fn table(points: &[Point]) -> String {
+    let mut s = String::from("cores threads l2_kb   frame_ms  speedup\n");
+    for p in points {
+        s += &format!(
+            "{:>5} {:>7} {:>5} {:>10.3} {:>8.2}\n",
+            p.cores,
+            p.threads,
+            p.l2_kb,
+            p.frame.ms,
+            speedup(points, p)
+        );
+    }
+    s.trim_end().to_string()
+}
+
+/// `study.csv`'s text: one row per configuration and step (plus `frame`).
+pub fn csv(points: &[Point]) -> String {
+    let mut s = String::from(
+        "cores,threads,l2_kb,phase,tasks,cycles,ms,stack_issue,stack_memory,stack_atomics_sync,\
+         stack_imbalance_idle,lane_utilisation,l1_miss_rate,l2_miss_rate,bytes_dram,frame_speedup\n",
+    );
+    for p in points {
+        let sp = speedup(points, p);
+        for ph in p.steps.iter().chain(std::iter::once(&p.frame)) {
+            s += &format!(
+                "{},{},{},{},{},{},{:.6},{},{},{},{},{:.6},{:.6},{:.6},{},{:.6}\n",
+                p.cores,
+                p.threads,
+                p.l2_kb,
+                ph.phase,
+                ph.tasks,
+                ph.cycles,
+                ph.ms,
+                ph.stack.issue,
+                ph.stack.memory,
+                ph.stack.atomics_sync,
+                ph.stack.imbalance_idle,
+                ph.lane_utilisation,
+                ph.l1_miss_rate,
+                ph.l2_miss_rate,
+                ph.bytes_dram,
+                sp
+            );
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests;

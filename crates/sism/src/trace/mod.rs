@@ -1,0 +1,485 @@
+//! Frame traces: a scene moving over time (camera, light, per-mesh translations), rendered frame by
+//! frame, and the flicker metric that compares an algorithm's frame-to-frame change with the
+//! reference's.
+//!
+//! **Format** (text, one statement a line, `#` starts a comment):
+//!
+//! ```text
+//! sism-trace 1
+//! scene ../scenes/palm.toml          # relative to the trace file
+//! frame                              # starts a frame; what it does not set carries over
+//! camera 1100 1000 1500  0 450 100   # eye x y z, look_at x y z (world units)
+//! fov 50                             # vertical field of view, degrees (optional)
+//! light -1000 2600 -700  50          # centre x y z, radius (world units)
+//! mesh 0 10 0 0                      # mesh index, translation x y z from its loaded place
+//! ```
+//!
+//! The first frame starts from the scene file's camera and light; every later frame from the one
+//! before it. [`write`] writes every field of every frame, so parse → write → parse is the identity.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+pub mod run;
+
+use crate::frame::VisibilityImage;
+use crate::scene::Scene;
+
+/// Most frames a trace may hold.
+pub const MAX_FRAMES: usize = 100_000;
+/// Largest |coordinate| accepted, world units (the scene file's bound).
+const MAX_COORD: f32 = 1e15;
+
+/// One frame's view of the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceFrame {
+    pub eye: Vec3,
+    pub look_at: Vec3,
+    /// Vertical field of view, degrees.
+    pub fov_y_deg: f32,
+    pub light_center: Vec3,
+    /// Light radius, world units.
+    pub light_radius: f32,
+    /// `(mesh index, translation)` for each moved mesh, by index.
+    pub mesh_moves: Vec<(usize, Vec3)>,
+}
+
+/// A trace: its scene file and its frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trace {
+    /// The scene file, as written in the trace (relative to the trace's folder unless absolute).
+    pub scene: PathBuf,
+    pub frames: Vec<TraceFrame>,
+}
+
+/// A bad trace: where and what.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{path}:{line}: {message}")]
+pub struct TraceError {
+    pub path: String,
+    /// 1-based line number (0 for the file as a whole).
+    pub line: usize,
+    pub message: String,
+}
+
+/// The first frame of a trace over `scene`: its camera and light, no mesh moved.
+pub fn initial_frame(scene: &Scene) -> TraceFrame {
+    TraceFrame {
+        eye: Vec3::from(scene.camera.eye),
+        look_at: Vec3::from(scene.camera.look_at),
+        fov_y_deg: scene.camera.fov_y_deg,
+        light_center: scene.light.center(),
+        light_radius: scene.light.radius,
+        mesh_moves: Vec::new(),
+    }
+}
+
+/// Parses trace `text` (from `path`, for messages). Frames start from `start` (the scene's view:
+/// [`initial_frame`]); the scene line is returned as written.
+pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, TraceError> {
+    let err = |line: usize, message: String| TraceError {
+        path: path.display().to_string(),
+        line,
+        message,
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.split('#').next().unwrap_or("").trim()))
+        .filter(|(_, l)| !l.is_empty());
+    match lines.next() {
+        Some((_, "sism-trace 1")) => {}
+        Some((n, l)) => return Err(err(n, format!("expected the header `sism-trace 1`, found `{l}`"))),
+        None => return Err(err(0, "empty trace: expected the header `sism-trace 1`".into())),
+    }
+    let mut scene = None;
+    let mut frames: Vec<TraceFrame> = Vec::new();
+    for (n, line) in lines {
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or("");
+        let rest: Vec<&str> = words.collect();
+        let numbers = |count: usize| -> Result<Vec<f32>, TraceError> {
+            if rest.len() != count {
+                return Err(err(
+                    n,
+                    format!("`{key}` takes {count} numbers, found {}", rest.len()),
+                ));
+            }
+            rest.iter()
+                .map(|w| match w.parse::<f32>() {
+                    Ok(v) if v.is_finite() && v.abs() <= MAX_COORD => Ok(v),
+                    Ok(v) => Err(err(
+                        n,
+                        format!("`{key}`: {v} is not finite or beyond ±{MAX_COORD:e}"),
+                    )),
+                    Err(_) => Err(err(n, format!("`{key}`: `{w}` is not a number"))),
+                })
+                .collect()
+        };
+        if key == "scene" {
+            if scene.is_some() || !frames.is_empty() {
+                return Err(err(n, "`scene` must come once, before the first frame".into()));
+            }
+            if rest.len() != 1 {
+                return Err(err(n, "`scene` takes one path (no spaces)".into()));
+            }
+            scene = Some(PathBuf::from(rest[0]));
+            continue;
+        }
+        if key == "frame" {
+            if !rest.is_empty() {
+                return Err(err(
+                    n,
+                    "`frame` takes nothing: its settings follow on their own lines".into(),
+                ));
+            }
+            if frames.len() == MAX_FRAMES {
+                return Err(err(n, format!("more than {MAX_FRAMES} frames")));
+            }
+            let next = frames.last().cloned().unwrap_or_else(|| start.clone());
+            frames.push(next);
+            continue;
+        }
+        let Some(f) = frames.last_mut() else {
+            return Err(err(n, format!("`{key}` before the first `frame`")));
+        };
+        match key {
+            "camera" => {
+                let v = numbers(6)?;
+                let (eye, at) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
+                if eye == at {
+                    return Err(err(n, "`camera`: the eye and the look-at point coincide".into()));
+                }
+                f.eye = eye;
+                f.look_at = at;
+            }
+            "fov" => {
+                let v = numbers(1)?[0];
+                if !(v > 0.0 && v < 180.0) {
+                    return Err(err(n, format!("`fov` {v}: degrees in (0, 180)")));
+                }
+                f.fov_y_deg = v;
+            }
+            "light" => {
+                let v = numbers(4)?;
+                if v[3] < 0.0 {
+                    return Err(err(n, format!("`light` radius {} is negative", v[3])));
+                }
+                f.light_center = Vec3::new(v[0], v[1], v[2]);
+                f.light_radius = v[3];
+            }
+            "mesh" => {
+                let index: usize = rest
+                    .first()
+                    .and_then(|w| w.parse().ok())
+                    .ok_or_else(|| err(n, "`mesh` takes a mesh index, then x y z".into()))?;
+                let rest_xyz = &rest[1..];
+                if rest_xyz.len() != 3 {
+                    return Err(err(
+                        n,
+                        format!("`mesh` takes an index and 3 numbers, found {}", rest.len()),
+                    ));
+                }
+                let mut v = [0f32; 3];
+                for (k, w) in rest_xyz.iter().enumerate() {
+                    v[k] = w
+                        .parse::<f32>()
+                        .ok()
+                        .filter(|v| v.is_finite() && v.abs() <= MAX_COORD)
+                        .ok_or_else(|| err(n, format!("`mesh`: `{w}` is not a finite number")))?;
+                }
+                let t = Vec3::from(v);
+                match f.mesh_moves.iter_mut().find(|(i, _)| *i == index) {
+                    Some(m) => m.1 = t,
+                    None => {
+                        f.mesh_moves.push((index, t));
+                        f.mesh_moves.sort_by_key(|m| m.0);
+                    }
+                }
+            }
+            _ => {
+                return Err(err(
+                    n,
+                    format!("unknown statement `{key}` (expected scene, frame, camera, fov, light or mesh)"),
+                ))
+            }
+        }
+    }
+    let scene = scene.ok_or_else(|| err(0, "no `scene` line".into()))?;
+    if frames.is_empty() {
+        return Err(err(0, "no frames".into()));
+    }
+    Ok(Trace { scene, frames })
+}
+
+/// The trace as text: every field of every frame.
+pub fn write(trace: &Trace) -> String {
+    let mut s = format!("sism-trace 1\nscene {}\n", trace.scene.display());
+    for f in &trace.frames {
+        s += &format!(
+            "frame\ncamera {} {} {}  {} {} {}\nfov {}\nlight {} {} {}  {}\n",
+            f.eye.x,
+            f.eye.y,
+            f.eye.z,
+            f.look_at.x,
+            f.look_at.y,
+            f.look_at.z,
+            f.fov_y_deg,
+            f.light_center.x,
+            f.light_center.y,
+            f.light_center.z,
+            f.light_radius
+        );
+        for (i, t) in &f.mesh_moves {
+            s += &format!("mesh {i} {} {} {}\n", t.x, t.y, t.z);
+        }
+    }
+    s
+}
+
+/// `base` as frame `f` sees it: camera, light, and the moved meshes translated. Errors name a mesh
+/// index the scene does not have.
+pub fn apply(base: &Scene, f: &TraceFrame) -> Result<Scene, String> {
+    let mut s = base.clone();
+    apply_to(&mut s, base, f, true)?;
+    Ok(s)
+}
+
+/// Sets `scene` (a copy of `base`) to frame `f`: its camera and light always; its meshes, as `base`'s
+/// translated by the frame's moves, only when `geometry` is set (the moves differ from the frame
+/// `scene` last showed), so a frame that moves no mesh copies no geometry.
+pub fn apply_to(scene: &mut Scene, base: &Scene, f: &TraceFrame, geometry: bool) -> Result<(), String> {
+    scene.camera.eye = f.eye.to_array();
+    scene.camera.look_at = f.look_at.to_array();
+    scene.camera.fov_y_deg = f.fov_y_deg;
+    scene.light.center = f.light_center.to_array();
+    scene.light.radius = f.light_radius;
+    if geometry {
+        for (m, b) in scene.meshes.iter_mut().zip(&base.meshes) {
+            m.positions.copy_from_slice(&b.positions);
+        }
+        for &(i, t) in &f.mesh_moves {
+            let m = scene
+                .meshes
+                .get_mut(i)
+                .ok_or_else(|| format!("mesh {i}: the scene has {} meshes", base.meshes.len()))?;
+            m.positions.iter_mut().for_each(|p| *p += t);
+        }
+    }
+    if let Err((key, msg)) = scene.camera.validate() {
+        return Err(format!("{key} {msg}"));
+    }
+    Ok(())
+}
+
+/// `frames` frames (at least 1) from `scene`'s own view, frame `k` being `step(first, share)` where
+/// `share(x)` is `x · k / (frames − 1)`: the part of a total `x` done by frame `k`.
+fn sweep(
+    scene_file: &Path,
+    scene: &Scene,
+    frames: usize,
+    step: impl Fn(&TraceFrame, &dyn Fn(f32) -> f32) -> TraceFrame,
+) -> Trace {
+    let f0 = initial_frame(scene);
+    let last = frames.max(2).saturating_sub(1) as f32;
+    Trace {
+        scene: scene_file.to_path_buf(),
+        frames: (0..frames.max(1))
+            .map(|k| step(&f0, &|x| x * k as f32 / last))
+            .collect(),
+    }
+}
+
+/// A camera orbit: `frames` frames turning the eye about the vertical axis through the look-at
+/// point by `degrees` in all.
+pub fn orbit(scene_file: &Path, scene: &Scene, frames: usize, degrees: f32) -> Trace {
+    sweep(scene_file, scene, frames, |f0, share| TraceFrame {
+        eye: f0.look_at + glam::Quat::from_rotation_y(share(degrees).to_radians()) * (f0.eye - f0.look_at),
+        ..f0.clone()
+    })
+}
+
+/// A walk-through: `frames` frames moving the eye and its look-at point together along the view
+/// direction by `share` of the eye's distance to the look-at point in all.
+pub fn walk(scene_file: &Path, scene: &Scene, frames: usize, share: f32) -> Trace {
+    sweep(scene_file, scene, frames, |f0, done| {
+        let moved = (f0.look_at - f0.eye) * share * done(1.0);
+        TraceFrame {
+            eye: f0.eye + moved,
+            look_at: f0.look_at + moved,
+            ..f0.clone()
+        }
+    })
+}
+
+/// A light sweep: `frames` frames turning the light's centre about the vertical axis through the
+/// camera's look-at point by `degrees` in all.
+pub fn light_sweep(scene_file: &Path, scene: &Scene, frames: usize, degrees: f32) -> Trace {
+    sweep(scene_file, scene, frames, |f0, share| TraceFrame {
+        light_center: f0.look_at
+            + glam::Quat::from_rotation_y(share(degrees).to_radians()) * (f0.light_center - f0.look_at),
+        ..f0.clone()
+    })
+}
+
+/// Flicker between two consecutive frames, per pixel `|(V_t − V_{t−1}) − (R_t − R_{t−1})|` over the
+/// pixels that are receivers (V in [0, 1]) in all four images; the reference's change is 0 when
+/// `reference` is `None` (then it is the algorithm's own frame-to-frame change). Returns the values.
+pub fn flicker_values(
+    prev: &VisibilityImage,
+    cur: &VisibilityImage,
+    reference: Option<(&VisibilityImage, &VisibilityImage)>,
+) -> Vec<f32> {
+    let ok = |v: f32| (0.0..=1.0).contains(&v);
+    (0..cur.values.len().min(prev.values.len()))
+        .filter_map(|k| {
+            let (a, b) = (prev.values[k], cur.values[k]);
+            if !ok(a) || !ok(b) {
+                return None;
+            }
+            let d_ref = match reference {
+                Some((rp, rc)) => {
+                    let (x, y) = (*rp.values.get(k)?, *rc.values.get(k)?);
+                    if !ok(x) || !ok(y) {
+                        return None;
+                    }
+                    y - x
+                }
+                None => 0.0,
+            };
+            Some(((b - a) - d_ref).abs())
+        })
+        .collect()
+}
+
+/// Mean and 99th percentile (nearest rank) of `values`; zeros when empty.
+pub fn summarize(values: &mut [f32]) -> (f64, f64) {
+    if values.is_empty() {
+        return (0.0, 0.0);
+    }
+    let mean = values.iter().map(|&v| v as f64).sum::<f64>() / values.len() as f64;
+    values.sort_by(f32::total_cmp);
+    let rank = ((0.99 * values.len() as f64).ceil() as usize).clamp(1, values.len());
+    (mean, values[rank - 1] as f64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn start() -> TraceFrame {
+        TraceFrame {
+            eye: Vec3::new(0.0, 2.0, 4.0),
+            look_at: Vec3::ZERO,
+            fov_y_deg: 45.0,
+            light_center: Vec3::new(0.0, 4.0, 0.0),
+            light_radius: 0.3,
+            mesh_moves: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn round_trips_and_carries_settings_over() {
+        let text = "sism-trace 1\n# a comment\nscene ../scenes/plate.toml\nframe\ncamera 1 2 3  0 0 0.5\n\
+                    frame\nlight 1 5 -1 0.25 # trailing comment\nmesh 1 0.5 0 0\nmesh 0 0 1e-3 0\nframe\nfov 30\n";
+        let t = parse(text, Path::new("t.trace"), &start()).unwrap();
+        assert_eq!(t.frames.len(), 3);
+        assert_eq!(t.frames[1].eye, Vec3::new(1.0, 2.0, 3.0)); // carried over
+        assert_eq!(t.frames[1].light_radius, 0.25);
+        assert_eq!(
+            t.frames[2].mesh_moves,
+            vec![(0, Vec3::new(0.0, 1e-3, 0.0)), (1, Vec3::new(0.5, 0.0, 0.0))]
+        );
+        assert_eq!(t.frames[2].fov_y_deg, 30.0);
+        let again = parse(&write(&t), Path::new("t.trace"), &start()).unwrap();
+        assert_eq!(again, t);
+        // Odd values survive the text too.
+        let mut odd = t.clone();
+        odd.frames[0].eye.x = 0.1 + 0.2;
+        odd.frames[0].light_center.z = -1.0e-7;
+        assert_eq!(parse(&write(&odd), Path::new("t"), &start()).unwrap(), odd);
+    }
+
+    #[test]
+    fn bad_traces_name_the_line() {
+        for (text, line, needle) in [
+            ("", 0, "header"),
+            ("sism trace\n", 1, "header"),
+            ("sism-trace 1\nframe\n", 0, "scene"),
+            ("sism-trace 1\nscene a.toml\n", 0, "no frames"),
+            (
+                "sism-trace 1\nscene a.toml\ncamera 1 2 3 4 5 6\n",
+                3,
+                "before the first",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\ncamera 1 2 3 4 5\n",
+                4,
+                "6 numbers",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\n\ncamera 1 2 x 4 5 6\n",
+                5,
+                "`x` is not a number",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\nlight 0 0 0 NaN\n",
+                4,
+                "not finite",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\nlight 0 0 0 -1\n",
+                4,
+                "negative",
+            ),
+            ("sism-trace 1\nscene a.toml\nframe\nfov 180\n", 4, "(0, 180)"),
+            (
+                "sism-trace 1\nscene a.toml\nframe\ncamera 1 1 1 1 1 1\n",
+                4,
+                "coincide",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\nmesh x 1 2 3\n",
+                4,
+                "mesh index",
+            ),
+            (
+                "sism-trace 1\nscene a.toml\nframe\nspin 3\n",
+                4,
+                "unknown statement",
+            ),
+            ("sism-trace 1\nscene a.toml\nframe 2\n", 3, "takes nothing"),
+            ("sism-trace 1\nframe\nscene a.toml\n", 3, "before the first frame"),
+        ] {
+            let e = parse(text, Path::new("bad.trace"), &start()).unwrap_err();
+            assert_eq!(e.line, line, "{text:?}: {e}");
+            assert!(
+                e.to_string().contains(needle) && e.to_string().starts_with("bad.trace:"),
+                "{text:?}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn identical_frames_have_zero_flicker() {
+        let img = VisibilityImage {
+            width: 2,
+            height: 2,
+            values: vec![0.25, f32::NAN, 1.0, -1.0],
+        };
+        let mut v = flicker_values(&img, &img, Some((&img, &img)));
+        assert_eq!(v.len(), 2);
+        assert_eq!(summarize(&mut v), (0.0, 0.0));
+        let moved = VisibilityImage {
+            values: vec![0.75, f32::NAN, 1.0, -1.0],
+            ..img.clone()
+        };
+        // The algorithm changes where the reference does not: flicker 0.5 at that pixel.
+        let mut v = flicker_values(&img, &moved, Some((&img, &img)));
+        assert_eq!(summarize(&mut v), (0.25, 0.5));
+        // The same change in both: no flicker.
+        let mut v = flicker_values(&img, &moved, Some((&img, &moved)));
+        assert_eq!(summarize(&mut v).0, 0.0);
+    }
+}
