@@ -2,22 +2,25 @@
 //! test) that an algorithm is one module plus one registry line: render, the registry's help and
 //! table, and the stats plumbing all pick it up with no other edit.
 
+use super::params::FloatParam;
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::exec::FrameLog;
 use crate::frame::{VisibilityImage, V_FACING_AWAY, V_MISS};
 use crate::stats::StatsReport;
+
+const VALUE: FloatParam = FloatParam::new(ParamSpec {
+    key: "value",
+    kind: ParamKind::Float { min: 0.0, max: 1.0 },
+    default: "0.5",
+    description: "the visibility every lit receiver gets",
+});
 
 /// The registry entry.
 pub static CONSTANT: super::Algorithm = super::Algorithm {
     name: "constant",
     family: Family::Test,
     summary: "V = `value` at every receiver facing the light (test only)",
-    params: &[ParamSpec {
-        key: "value",
-        kind: ParamKind::Float { min: 0.0, max: 1.0 },
-        default: "0.5",
-        description: "the visibility every lit receiver gets",
-    }],
+    params: &[VALUE.spec()],
     receivers: ReceiverSource::Raster,
     kernels: true,
     bench: BenchPlan::Skip,
@@ -25,7 +28,7 @@ pub static CONSTANT: super::Algorithm = super::Algorithm {
 };
 
 fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> AlgorithmFrame {
-    let value = params.float("value") as f32;
+    let value = params.get(&VALUE) as f32;
     let light = inputs.prepared.scene.light.center();
     let r = inputs.receivers;
     let visibility = log.phase("fill", "constant fill", |_| {

@@ -24,6 +24,7 @@
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
+use super::params::{ChoiceParam, FloatParam, IntParam};
 use super::shadow_map::{self as sm, lookup::Method as MapMethod};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::exec::{task_kind, FrameLog};
@@ -52,37 +53,45 @@ crate::declare_stats! {
     }
 }
 
+/// `distance_power` (Dp), with `gaussian-pcf`'s default; each variant declares its own fitted one.
+const DISTANCE_POWER: FloatParam = FloatParam::new(ParamSpec {
+    key: "distance_power",
+    kind: ParamKind::Float { min: 0.01, max: 8.0 },
+    default: "2",
+    description:
+        "Dp: D = (occluder distance)^Dp · Dm, pixels (default fitted on scenes/sphere.toml at 800×600)",
+});
+/// `distance_multiplier` (Dm), with `gaussian-pcf`'s default; each variant declares its own fitted one.
+const DISTANCE_MULTIPLIER: FloatParam = FloatParam::new(ParamSpec {
+    key: "distance_multiplier",
+    kind: ParamKind::Float { min: 0.0, max: 1e6 },
+    default: "10",
+    description:
+        "Dm: pixels of D per unit of (occluder distance)^Dp (default fitted on scenes/sphere.toml at 800×600)",
+});
 /// `distance_power` (Dp) with a variant's fitted default.
 const fn dp(default: &'static str) -> ParamSpec {
-    ParamSpec {
-        key: "distance_power",
-        kind: ParamKind::Float { min: 0.01, max: 8.0 },
-        default,
-        description:
-            "Dp: D = (occluder distance)^Dp · Dm, pixels (default fitted on scenes/sphere.toml at 800×600)",
-    }
+    DISTANCE_POWER.with_default(default).spec()
 }
 /// `distance_multiplier` (Dm) with a variant's fitted default.
 const fn dm(default: &'static str) -> ParamSpec {
-    ParamSpec {
-        key: "distance_multiplier",
-        kind: ParamKind::Float { min: 0.0, max: 1e6 },
-        default,
-        description: "Dm: pixels of D per unit of (occluder distance)^Dp (default fitted on scenes/sphere.toml at 800×600)",
-    }
+    DISTANCE_MULTIPLIER.with_default(default).spec()
 }
-const DILATE: ParamSpec = ParamSpec {
+const DILATE: IntParam = IntParam::new(ParamSpec {
     key: "dilate",
     kind: ParamKind::Int { min: 0, max: 19 },
     default: "0",
     description: "side of the Gaussian that dilates D before the blurs, pixels (0: off; odd)",
-};
-const UMBRA_SKIP: ParamSpec = ParamSpec {
-    key: "umbra_skip",
-    kind: ParamKind::Choice(&["no", "yes"]),
-    default: "no",
-    description: "yes: D = 0 where a pixel and all 8 neighbours are shadowed (no blur inside umbrae)",
-};
+});
+const UMBRA_SKIP: ChoiceParam<bool> = ChoiceParam::new(
+    ParamSpec {
+        key: "umbra_skip",
+        kind: ParamKind::Choice(&["no", "yes"]),
+        default: "no",
+        description: "yes: D = 0 where a pixel and all 8 neighbours are shadowed (no blur inside umbrae)",
+    },
+    &[false, true],
+);
 
 // Fitted defaults (`cargo run --release --example fit_contact_hardening -- scenes/sphere.toml 800 600`):
 // pcf Dp 2, Dm 10 (MAE 0.0123); single Dp 1.5, Dm 10 (0.0128); multi Dp 6, Dm 2 (0.0122).
@@ -92,8 +101,8 @@ const PCF_PARAMS: [ParamSpec; 7] = [
     sm::MAP_PARAMS[2],
     dp("2"),
     dm("10"),
-    DILATE,
-    UMBRA_SKIP,
+    DILATE.spec(),
+    UMBRA_SKIP.spec(),
 ];
 const SINGLE_PARAMS: [ParamSpec; 7] = [
     sm::MAP_PARAMS[0],
@@ -101,41 +110,48 @@ const SINGLE_PARAMS: [ParamSpec; 7] = [
     sm::MAP_PARAMS[2],
     dp("1.5"),
     dm("10"),
-    DILATE,
-    UMBRA_SKIP,
+    DILATE.spec(),
+    UMBRA_SKIP.spec(),
 ];
-const MULTI_PARAMS: [ParamSpec; 11] = [
-    sm::MAP_PARAMS[0],
-    sm::MAP_PARAMS[1],
-    sm::MAP_PARAMS[2],
-    dp("6"),
-    dm("2"),
-    DILATE,
-    UMBRA_SKIP,
-    ParamSpec {
-        key: "passes",
-        kind: ParamKind::Int { min: 1, max: 10 },
-        default: "10",
-        description: "most blur passes (D decremented by 1 after each)",
-    },
-    ParamSpec {
-        key: "kernel",
-        kind: ParamKind::OddInt { min: 3, max: 19 },
-        default: "9",
-        description: "kernel side KS, pixels (the widening kernel's upper bound)",
-    },
+const PASSES: IntParam = IntParam::new(ParamSpec {
+    key: "passes",
+    kind: ParamKind::Int { min: 1, max: 10 },
+    default: "10",
+    description: "most blur passes (D decremented by 1 after each)",
+});
+const KERNEL: IntParam = IntParam::new(ParamSpec {
+    key: "kernel",
+    kind: ParamKind::OddInt { min: 3, max: 19 },
+    default: "9",
+    description: "kernel side KS, pixels (the widening kernel's upper bound)",
+});
+const WIDENING: ChoiceParam<bool> = ChoiceParam::new(
     ParamSpec {
         key: "widening",
         kind: ParamKind::Choice(&["no", "yes"]),
         default: "no",
         description: "yes: KS = 3, 5, 7, ... up to kernel, one step per pass",
     },
-    ParamSpec {
-        key: "taps",
-        kind: ParamKind::Int { min: 1, max: 64 },
-        default: "20",
-        description: "Poisson taps per pass (the first at the centre)",
-    },
+    &[false, true],
+);
+const TAPS: IntParam = IntParam::new(ParamSpec {
+    key: "taps",
+    kind: ParamKind::Int { min: 1, max: 64 },
+    default: "20",
+    description: "Poisson taps per pass (the first at the centre)",
+});
+const MULTI_PARAMS: [ParamSpec; 11] = [
+    sm::MAP_PARAMS[0],
+    sm::MAP_PARAMS[1],
+    sm::MAP_PARAMS[2],
+    dp("6"),
+    dm("2"),
+    DILATE.spec(),
+    UMBRA_SKIP.spec(),
+    PASSES.spec(),
+    KERNEL.spec(),
+    WIDENING.spec(),
+    TAPS.spec(),
 ];
 
 macro_rules! gaussian_algorithm {
@@ -241,8 +257,8 @@ struct Screen {
 
 fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, variant: Variant) -> AlgorithmFrame {
     let (dp, dm) = (
-        params.float("distance_power") as f32,
-        params.float("distance_multiplier") as f32,
+        params.get(&DISTANCE_POWER) as f32,
+        params.get(&DISTANCE_MULTIPLIER) as f32,
     );
     let (visibility, map_stats, per_sample) = sm::map_frame(
         inputs,
@@ -301,7 +317,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, variant: V
         |p| {
             // A frame with nothing to blur runs no pass: timed as zero, not as untimed host work.
             p.skip();
-            let dilate = params.int("dilate") as u32;
+            let dilate = params.get(&DILATE) as u32;
             if dilate > 1 {
                 let table = gaussian_table();
                 let r = (dilate / 2) as f32;
@@ -313,7 +329,7 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, variant: V
                     scr.d = out;
                 }
             }
-            if params.choice("umbra_skip") == "yes" {
+            if params.get(&UMBRA_SKIP) {
                 let src = scr.d.clone();
                 let (out, skipped) = umbra_skip(p, &scr, &src);
                 scr.d = out;
@@ -348,10 +364,10 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, variant: V
                     stats.passes = 1;
                 }
                 Variant::Multi => {
-                    let passes = params.int("passes") as u32;
-                    let kernel = params.int("kernel") as u32;
-                    let widening = params.choice("widening") == "yes";
-                    let n_taps = params.int("taps") as usize;
+                    let passes = params.get(&PASSES) as u32;
+                    let kernel = params.get(&KERNEL) as u32;
+                    let widening = params.get(&WIDENING);
+                    let n_taps = params.get(&TAPS) as usize;
                     for pass in 0..passes {
                         if !scr.d.iter().zip(&scr.receiver).any(|(&d, &r)| r && d > 0.0) {
                             break;

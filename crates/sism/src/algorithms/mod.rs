@@ -23,7 +23,10 @@ mod constant;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-pub use params::{ParamError, ParamKind, ParamSpec, ParamValue, Params};
+pub use params::{
+    ChoiceParam, FloatParam, IntParam, ParamError, ParamKind, ParamSpec, ParamValue, Params, TypedParam,
+    U64Param,
+};
 
 use crate::bvh::SceneBvh;
 use crate::exec::FrameLog;
@@ -292,6 +295,39 @@ mod tests {
                     spec.parse(v)
                         .unwrap_or_else(|e| panic!("{}: sweep {key}={v}: {e}", a.name));
                 }
+            }
+        }
+    }
+
+    /// [`Params::get`] debug-asserts that the parameter read is one the algorithm declares (key and
+    /// kind), so running every algorithm at its defaults, and at each other value of every choice
+    /// (for reads behind a choice), fails here if any read is not declared.
+    #[test]
+    fn every_parameter_read_is_declared() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plate.toml");
+        let mut scene = Scene::load(&path).unwrap();
+        scene.camera.width = 48;
+        scene.camera.height = 36;
+        for a in REGISTRY {
+            // Few rays and small maps: only the reads matter.
+            let cheap: Vec<(String, String)> = [("spp", "4"), ("map_size", "256")]
+                .into_iter()
+                .filter(|(k, _)| a.param(k).is_some())
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect();
+            let mut runs = vec![cheap.clone()];
+            for spec in a.params {
+                if let ParamKind::Choice(names) = spec.kind {
+                    for name in names.iter().filter(|n| **n != spec.default) {
+                        let mut given = cheap.clone();
+                        given.push((spec.key.to_string(), name.to_string()));
+                        runs.push(given);
+                    }
+                }
+            }
+            for given in runs {
+                let params = a.params(&given).unwrap_or_else(|e| panic!("{e}"));
+                crate::render::render(&scene, a, &params, &Default::default());
             }
         }
     }

@@ -111,10 +111,197 @@ pub struct ParamError {
     pub message: String,
 }
 
+/// A parameter read as an `i64`: a [`ParamSpec`] of kind [`ParamKind::Int`] or [`ParamKind::OddInt`]
+/// (any other kind does not compile: the check runs in const evaluation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntParam {
+    spec: ParamSpec,
+}
+
+/// A parameter read as a `u64`: a [`ParamSpec`] of kind [`ParamKind::U64`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct U64Param {
+    spec: ParamSpec,
+}
+
+/// A parameter read as an `f64`: a [`ParamSpec`] of kind [`ParamKind::Float`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FloatParam {
+    spec: ParamSpec,
+}
+
+/// A parameter read as a `T`: a [`ParamSpec`] of kind [`ParamKind::Choice`] and the value of each
+/// name, in the same order, so that code matches on `T` instead of comparing names it could misspell.
+#[derive(Debug, PartialEq)]
+pub struct ChoiceParam<T: 'static> {
+    spec: ParamSpec,
+    values: &'static [T],
+}
+
+impl<T> Clone for ChoiceParam<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for ChoiceParam<T> {}
+
+impl IntParam {
+    pub const fn new(spec: ParamSpec) -> IntParam {
+        assert!(
+            matches!(spec.kind, ParamKind::Int { .. } | ParamKind::OddInt { .. }),
+            "an IntParam's kind is Int or OddInt"
+        );
+        IntParam { spec }
+    }
+}
+
+impl U64Param {
+    pub const fn new(spec: ParamSpec) -> U64Param {
+        assert!(matches!(spec.kind, ParamKind::U64), "a U64Param's kind is U64");
+        U64Param { spec }
+    }
+}
+
+impl FloatParam {
+    pub const fn new(spec: ParamSpec) -> FloatParam {
+        assert!(
+            matches!(spec.kind, ParamKind::Float { .. }),
+            "a FloatParam's kind is Float"
+        );
+        FloatParam { spec }
+    }
+}
+
+impl<T> ChoiceParam<T> {
+    /// `values[i]` is what name `i` of the spec's choices reads as.
+    pub const fn new(spec: ParamSpec, values: &'static [T]) -> ChoiceParam<T> {
+        match spec.kind {
+            ParamKind::Choice(names) => assert!(
+                !names.is_empty() && names.len() == values.len(),
+                "a ChoiceParam has one value per name"
+            ),
+            _ => panic!("a ChoiceParam's kind is Choice"),
+        }
+        ChoiceParam { spec, values }
+    }
+}
+
+/// The declaration and its variants, shared by the typed parameters.
+macro_rules! typed_param_spec {
+    ($($name:ident$(<$t:ident>)?),*) => {$(
+        impl$(<$t>)? $name$(<$t>)? {
+            /// The declaration, for an algorithm's parameter list.
+            pub const fn spec(&self) -> ParamSpec {
+                self.spec
+            }
+
+            /// The same parameter with another default (valid: the registry's test parses it).
+            pub const fn with_default(self, default: &'static str) -> Self {
+                let mut p = self;
+                p.spec.default = default;
+                p
+            }
+
+            /// The same parameter with another description.
+            pub const fn with_description(self, description: &'static str) -> Self {
+                let mut p = self;
+                p.spec.description = description;
+                p
+            }
+        }
+    )*};
+}
+
+typed_param_spec!(IntParam, U64Param, FloatParam, ChoiceParam<T>);
+
+/// A typed parameter: what [`Params::get`] reads through.
+pub trait TypedParam {
+    /// What a read gives.
+    type Value;
+    /// The declaration whose key is read.
+    fn declaration(&self) -> &ParamSpec;
+    /// `value` as this parameter's type, if it is of its kind.
+    fn decode(&self, value: ParamValue) -> Option<Self::Value>;
+    /// The last resort when even the default does not decode: the lowest allowed value.
+    fn lowest(&self) -> Self::Value;
+}
+
+impl TypedParam for IntParam {
+    type Value = i64;
+    fn declaration(&self) -> &ParamSpec {
+        &self.spec
+    }
+    fn decode(&self, value: ParamValue) -> Option<i64> {
+        match value {
+            ParamValue::Int(v) => Some(v),
+            _ => None,
+        }
+    }
+    fn lowest(&self) -> i64 {
+        match self.spec.kind {
+            ParamKind::Int { min, .. } | ParamKind::OddInt { min, .. } => min,
+            _ => 0,
+        }
+    }
+}
+
+impl TypedParam for U64Param {
+    type Value = u64;
+    fn declaration(&self) -> &ParamSpec {
+        &self.spec
+    }
+    fn decode(&self, value: ParamValue) -> Option<u64> {
+        match value {
+            ParamValue::U64(v) => Some(v),
+            _ => None,
+        }
+    }
+    fn lowest(&self) -> u64 {
+        0
+    }
+}
+
+impl TypedParam for FloatParam {
+    type Value = f64;
+    fn declaration(&self) -> &ParamSpec {
+        &self.spec
+    }
+    fn decode(&self, value: ParamValue) -> Option<f64> {
+        match value {
+            ParamValue::Float(v) => Some(v),
+            _ => None,
+        }
+    }
+    fn lowest(&self) -> f64 {
+        match self.spec.kind {
+            ParamKind::Float { min, .. } => min,
+            _ => 0.0,
+        }
+    }
+}
+
+impl<T: Copy> TypedParam for ChoiceParam<T> {
+    type Value = T;
+    fn declaration(&self) -> &ParamSpec {
+        &self.spec
+    }
+    fn decode(&self, value: ParamValue) -> Option<T> {
+        let (ParamValue::Choice(name), ParamKind::Choice(names)) = (value, self.spec.kind) else {
+            return None;
+        };
+        let i = names.iter().position(|n| *n == name)?;
+        self.values.get(i).copied()
+    }
+    fn lowest(&self) -> T {
+        self.values[0]
+    }
+}
+
 /// Every declared parameter of one algorithm with its checked value (given or default).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
-    values: Vec<(&'static str, ParamValue)>,
+    values: Vec<(&'static str, ParamKind, ParamValue)>,
 }
 
 impl Params {
@@ -153,7 +340,7 @@ impl Params {
                 .find(|(k, _)| k == spec.key)
                 .map_or(spec.default, |(_, v)| v.as_str());
             let value = spec.parse(text).map_err(|m| err(spec.key, m))?;
-            values.push((spec.key, value));
+            values.push((spec.key, spec.kind, value));
         }
         Ok(Params { values })
     }
@@ -163,58 +350,39 @@ impl Params {
         Self::resolve(algorithm, specs, &[])
     }
 
-    fn get(&self, key: &str) -> ParamValue {
-        self.values
+    /// The value of `param`, which the algorithm declares (same key and kind). A parameter it does not
+    /// declare is a bug the registry's tests catch (debug assertion); in a release build the read
+    /// gives `param`'s default rather than fail a render.
+    pub fn get<P: TypedParam>(&self, param: &P) -> P::Value {
+        let spec = param.declaration();
+        let declared = self
+            .values
             .iter()
-            .find(|(k, _)| *k == key)
-            .map(|(_, v)| *v)
-            .unwrap_or_else(|| panic!("parameter `{key}` is not declared by this algorithm"))
-    }
-
-    /// An integer parameter (declared [`ParamKind::Int`]).
-    pub fn int(&self, key: &str) -> i64 {
-        match self.get(key) {
-            ParamValue::Int(v) => v,
-            other => panic!("parameter `{key}` is {other:?}, not an integer"),
-        }
-    }
-
-    /// A [`ParamKind::U64`] parameter.
-    pub fn u64(&self, key: &str) -> u64 {
-        match self.get(key) {
-            ParamValue::U64(v) => v,
-            other => panic!("parameter `{key}` is {other:?}, not a u64"),
-        }
-    }
-
-    /// A real parameter (declared [`ParamKind::Float`]).
-    pub fn float(&self, key: &str) -> f64 {
-        match self.get(key) {
-            ParamValue::Float(v) => v,
-            other => panic!("parameter `{key}` is {other:?}, not a number"),
-        }
-    }
-
-    /// A choice parameter (declared [`ParamKind::Choice`]).
-    pub fn choice(&self, key: &str) -> &'static str {
-        match self.get(key) {
-            ParamValue::Choice(v) => v,
-            other => panic!("parameter `{key}` is {other:?}, not a choice"),
-        }
+            .find(|(key, kind, _)| *key == spec.key && *kind == spec.kind);
+        debug_assert!(
+            declared.is_some(),
+            "parameter `{}` ({}) is not declared by this algorithm",
+            spec.key,
+            spec.range()
+        );
+        declared
+            .and_then(|&(_, _, v)| param.decode(v))
+            .or_else(|| spec.parse(spec.default).ok().and_then(|v| param.decode(v)))
+            .unwrap_or_else(|| param.lowest())
     }
 
     /// `key=value` for every parameter, space-separated (for facts and labels).
     pub fn describe(&self) -> String {
         self.values
             .iter()
-            .map(|(k, v)| format!("{k}={v}"))
+            .map(|(k, _, v)| format!("{k}={v}"))
             .collect::<Vec<_>>()
             .join(" ")
     }
 
     /// The parameters and values, in declaration order.
     pub fn iter(&self) -> impl Iterator<Item = (&'static str, ParamValue)> + '_ {
-        self.values.iter().copied()
+        self.values.iter().map(|&(k, _, v)| (k, v))
     }
 }
 
@@ -232,26 +400,33 @@ pub fn split_pair(text: &str) -> Result<(String, String), String> {
 mod tests {
     use super::*;
 
-    const SPECS: &[ParamSpec] = &[
-        ParamSpec {
-            key: "n",
-            kind: ParamKind::Int { min: 1, max: 33 },
-            default: "3",
-            description: "taps",
-        },
-        ParamSpec {
-            key: "w",
-            kind: ParamKind::Float { min: 0.0, max: 2.0 },
-            default: "0.5",
-            description: "width, world units",
-        },
+    const N: IntParam = IntParam::new(ParamSpec {
+        key: "n",
+        kind: ParamKind::Int { min: 1, max: 33 },
+        default: "3",
+        description: "taps",
+    });
+    const W: FloatParam = FloatParam::new(ParamSpec {
+        key: "w",
+        kind: ParamKind::Float { min: 0.0, max: 2.0 },
+        default: "0.5",
+        description: "width, world units",
+    });
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Mode {
+        A,
+        B,
+    }
+    const MODE: ChoiceParam<Mode> = ChoiceParam::new(
         ParamSpec {
             key: "mode",
             kind: ParamKind::Choice(&["a", "b"]),
             default: "a",
             description: "mode",
         },
-    ];
+        &[Mode::A, Mode::B],
+    );
+    const SPECS: &[ParamSpec] = &[N.spec(), W.spec(), MODE.spec()];
 
     fn given(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
         pairs
@@ -263,10 +438,24 @@ mod tests {
     #[test]
     fn defaults_and_overrides() {
         let p = Params::defaults("t", SPECS).unwrap();
-        assert_eq!((p.int("n"), p.float("w"), p.choice("mode")), (3, 0.5, "a"));
+        assert_eq!((p.get(&N), p.get(&W), p.get(&MODE)), (3, 0.5, Mode::A));
         let p = Params::resolve("t", SPECS, &given(&[("mode", "b"), ("n", "33")])).unwrap();
-        assert_eq!((p.int("n"), p.choice("mode")), (33, "b"));
+        assert_eq!((p.get(&N), p.get(&MODE)), (33, Mode::B));
         assert_eq!(p.describe(), "n=33 w=0.5 mode=b");
+    }
+
+    /// A read of a parameter the algorithm does not declare (or declares with another kind) is a
+    /// debug assertion; a release build reads the parameter's default instead of failing.
+    #[test]
+    #[cfg_attr(debug_assertions, should_panic(expected = "is not declared"))]
+    fn undeclared_reads_fall_back_to_the_default() {
+        let p = Params::resolve("t", &SPECS[..1], &given(&[("n", "7")])).unwrap();
+        assert_eq!(p.get(&W), 0.5);
+        let other_kind = IntParam::new(ParamSpec {
+            kind: ParamKind::Int { min: 0, max: 9 },
+            ..N.spec()
+        });
+        assert_eq!(p.get(&other_kind), 3);
     }
 
     #[test]

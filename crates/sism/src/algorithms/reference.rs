@@ -12,6 +12,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use sism_simd::Mask16;
 
+use super::params::{IntParam, U64Param};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::bvh::beam::{Beam, BEAM_RAYS};
 use crate::bvh::SceneBvh;
@@ -23,21 +24,21 @@ use crate::scene::topology::SceneTopology;
 use crate::scene::{Light, Scene};
 use crate::stats::StatsReport;
 
+const SPP: IntParam = IntParam::new(ParamSpec {
+    key: "spp",
+    kind: ParamKind::Int { min: 1, max: 65_536 },
+    default: "256",
+    description: "stratified light-disk samples per receiver, one shadow ray each",
+});
+const SEED: U64Param = U64Param::new(ParamSpec {
+    key: "seed",
+    kind: ParamKind::U64,
+    default: "0",
+    description: "seed of the sample jitter: the same seed gives the same image on any host",
+});
+
 /// The reference's parameters (both modes).
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        key: "spp",
-        kind: ParamKind::Int { min: 1, max: 65_536 },
-        default: "256",
-        description: "stratified light-disk samples per receiver, one shadow ray each",
-    },
-    ParamSpec {
-        key: "seed",
-        kind: ParamKind::U64,
-        default: "0",
-        description: "seed of the sample jitter: the same seed gives the same image on any host",
-    },
-];
+const PARAMS: &[ParamSpec] = &[SPP.spec(), SEED.spec()];
 
 /// `reference`: the visibility of CONTRACTS.md, ray traced.
 pub static REFERENCE: super::Algorithm = super::Algorithm {
@@ -71,8 +72,8 @@ with `sism` to measure the rest",
 /// The registry's entry point: shadow rays for every receiver.
 fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, mode: ReferenceMode) -> AlgorithmFrame {
     let options = ReferenceOptions {
-        spp: params.int("spp") as u32,
-        seed: params.u64("seed"),
+        spp: params.get(&SPP) as u32,
+        seed: params.get(&SEED),
         progress: inputs.progress,
         mode,
     };

@@ -32,6 +32,7 @@
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
+use super::super::params::{ChoiceParam, IntParam};
 use super::super::rbsm::visibility::{Function, Settings};
 use super::super::shadow_map::depth_map::{self, MapStats};
 use super::super::shadow_map::{self as sm, lookup::Method as MapMethod};
@@ -72,25 +73,21 @@ crate::declare_stats! {
     }
 }
 
-/// `rb-adaptive`'s parameters.
-const PARAMS: [ParamSpec; 8] = [
-    ParamSpec {
-        default: "1024",
-        ..sm::MAP_PARAMS[0]
-    },
-    sm::MAP_PARAMS[1],
-    ParamSpec {
-        default: "4",
-        description: "slope-scaled depth bias: times the surface's largest depth change per texel (the \
-revectorization papers' polygon offset factor 4)",
-        ..sm::MAP_PARAMS[2]
-    },
-    ParamSpec {
-        key: "max_level",
-        kind: ParamKind::Int { min: 0, max: 4 },
-        default: "4",
-        description: "deepest quadtree level: at most (2^max_level + 1)² light samples (4: the paper's 289)",
-    },
+const MAX_LEVEL: IntParam = IntParam::new(ParamSpec {
+    key: "max_level",
+    kind: ParamKind::Int { min: 0, max: 4 },
+    default: "4",
+    description: "deepest quadtree level: at most (2^max_level + 1)² light samples (4: the paper's 289)",
+});
+
+/// The per-sample test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Visibility {
+    Rsmss,
+    Rpcf,
+    Hard,
+}
+const VISIBILITY: ChoiceParam<Visibility> = ChoiceParam::new(
     ParamSpec {
         key: "visibility",
         kind: ParamKind::Choice(&["rsmss", "rpcf", "hard"]),
@@ -98,6 +95,9 @@ revectorization papers' polygon offset factor 4)",
         description: "per-sample test V_i of the penumbra's weighted mean: v_RSMSS, RPCF over v_RSMSS \
 (3×3, with RPCF's divisors), or the hard test",
     },
+    &[Visibility::Rsmss, Visibility::Rpcf, Visibility::Hard],
+);
+const FORCE_REFINE: ChoiceParam<bool> = ChoiceParam::new(
     ParamSpec {
         key: "force_refine",
         kind: ParamKind::Choice(&["no", "yes"]),
@@ -105,8 +105,25 @@ revectorization papers' polygon offset factor 4)",
         description: "yes: refine every node and treat every receiver as penumbra (the uniform mean over \
 the lattice, for tests)",
     },
-    super::super::rbsm::MAX_SEARCH,
-    super::super::rbsm::EPSILON,
+    &[false, true],
+);
+
+/// `rb-adaptive`'s parameters.
+const PARAMS: [ParamSpec; 8] = [
+    sm::MAP_SIZE.with_default("1024").spec(),
+    sm::MAP_PARAMS[1],
+    sm::BIAS_SLOPE
+        .with_default("4")
+        .with_description(
+            "slope-scaled depth bias: times the surface's largest depth change per texel (the \
+revectorization papers' polygon offset factor 4)",
+        )
+        .spec(),
+    MAX_LEVEL.spec(),
+    VISIBILITY.spec(),
+    FORCE_REFINE.spec(),
+    super::super::rbsm::MAX_SEARCH.spec(),
+    super::super::rbsm::EPSILON.spec(),
 ];
 
 /// `rb-adaptive`: the adaptive method.
@@ -308,15 +325,15 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
         "light view fitted to the receivers and their light-space samples",
         |p| light_samples::build(p, inputs.receivers, &scene.light),
     );
-    let visibility = params.choice("visibility");
+    let visibility = params.get(&VISIBILITY);
     let test = match visibility {
-        "rsmss" => Some(super::super::rbsm::Method::Single(Function::Rsmss)),
-        "rpcf" => Some(super::super::rbsm::Method::Rpcf {
+        Visibility::Rsmss => Some(super::super::rbsm::Method::Single(Function::Rsmss)),
+        Visibility::Rpcf => Some(super::super::rbsm::Method::Rpcf {
             function: Function::Rsmss,
             k: 2,
             p: 1.0,
         }),
-        _ => None,
+        Visibility::Hard => None,
     };
     let n = samples.samples.len();
     let (w, h) = (samples.image.width, samples.image.height);
@@ -327,13 +344,10 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
         points: light_points(scene.light.center(), scene.light.radius, normal, LATTICE_SIDE),
         map_params: sm::map_params(params),
         test,
-        settings: Settings {
-            max_search: params.int("max_search") as i32,
-            epsilon: params.float("epsilon") as f32,
-        },
-        rpcf: visibility == "rpcf",
-        max_level: params.int("max_level") as u32,
-        force: params.choice("force_refine") == "yes",
+        settings: super::super::rbsm::settings(params),
+        rpcf: visibility == Visibility::Rpcf,
+        max_level: params.get(&MAX_LEVEL) as u32,
+        force: params.get(&FORCE_REFINE),
         rendered: (0..LATTICE_SIDE * LATTICE_SIDE).map(|_| None).collect(),
         vm: vec![0.0; n],
         ss: vec![BACKGROUND; (w * h) as usize],

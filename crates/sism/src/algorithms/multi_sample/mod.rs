@@ -35,6 +35,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
+use crate::algorithms::params::{ChoiceParam, IntParam};
 use crate::algorithms::rbsm::visibility::{Function, Settings};
 use crate::algorithms::shadow_map::depth_map::{self, MapStats};
 use crate::algorithms::shadow_map::{self as sm, lookup::Method as HardMethod};
@@ -67,33 +68,39 @@ crate::declare_stats! {
     }
 }
 
-const SAMPLES_PER_SIDE: ParamSpec = ParamSpec {
+const SAMPLES_PER_SIDE: IntParam = IntParam::new(ParamSpec {
     key: "samples_per_side",
     kind: ParamKind::Int { min: 1, max: 65 },
     default: "17",
     description: "light points per side of the square lattice mapped onto the light disk: N = side² \
 (17: the paper's 289)",
-};
-const VISIBILITY: ParamSpec = ParamSpec {
-    key: "visibility",
-    kind: ParamKind::Choice(&["hard", "rsmss"]),
-    default: "hard",
-    description: "per light point: the hard test, or v_RSMSS (revectorized, filtered over one texel)",
-};
+});
+/// The test at each light point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Visibility {
+    Hard,
+    Rsmss,
+}
+const VISIBILITY: ChoiceParam<Visibility> = ChoiceParam::new(
+    ParamSpec {
+        key: "visibility",
+        kind: ParamKind::Choice(&["hard", "rsmss"]),
+        default: "hard",
+        description: "per light point: the hard test, or v_RSMSS (revectorized, filtered over one texel)",
+    },
+    &[Visibility::Hard, Visibility::Rsmss],
+);
 
 /// `light-samples`' parameters: the maps' (1024² by default, the soft-shadow paper's), the lattice and
 /// the per-point test (with the revectorization settings for `rsmss`).
 const PARAMS: [ParamSpec; 7] = [
-    ParamSpec {
-        default: "1024",
-        ..sm::MAP_PARAMS[0]
-    },
+    sm::MAP_SIZE.with_default("1024").spec(),
     sm::MAP_PARAMS[1],
     sm::MAP_PARAMS[2],
-    SAMPLES_PER_SIDE,
-    VISIBILITY,
-    crate::algorithms::rbsm::MAX_SEARCH,
-    crate::algorithms::rbsm::EPSILON,
+    SAMPLES_PER_SIDE.spec(),
+    VISIBILITY.spec(),
+    crate::algorithms::rbsm::MAX_SEARCH.spec(),
+    crate::algorithms::rbsm::EPSILON.spec(),
 ];
 
 /// `light-samples`: the mean of hard tests from `N` light points.
@@ -168,13 +175,10 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog) -> Algorit
         |p| light_samples::build(p, inputs.receivers, &scene.light),
     );
     let map_params = sm::map_params(params);
-    let side = params.int("samples_per_side") as u32;
-    let test = match params.choice("visibility") {
-        "rsmss" => PointTest::Rsmss(Settings {
-            max_search: params.int("max_search") as i32,
-            epsilon: params.float("epsilon") as f32,
-        }),
-        _ => PointTest::Hard(HardMethod::Hard),
+    let side = params.get(&SAMPLES_PER_SIDE) as u32;
+    let test = match params.get(&VISIBILITY) {
+        Visibility::Rsmss => PointTest::Rsmss(crate::algorithms::rbsm::settings(params)),
+        Visibility::Hard => PointTest::Hard(HardMethod::Hard),
     };
     let centre = scene.light.center();
     let points = light_points(centre, scene.light.radius, disk_normal(&samples.samples), side);

@@ -14,6 +14,7 @@ pub mod visibility;
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, Simd};
 
+use super::params::{FloatParam, IntParam};
 use super::shadow_map::depth_map::{FaceMap, LightMaps};
 use super::shadow_map::{face_tasks, map_frame};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
@@ -48,46 +49,46 @@ crate::declare_stats! {
     }
 }
 
-pub const MAX_SEARCH: ParamSpec = ParamSpec {
+pub const MAX_SEARCH: IntParam = IntParam::new(ParamSpec {
     key: "max_search",
     kind: ParamKind::Int { min: 1, max: 256 },
     default: "16",
     description: "steps of an ONDS walk (the paper's maximum edge length), texels",
-};
-pub const EPSILON: ParamSpec = ParamSpec {
+});
+pub const EPSILON: FloatParam = FloatParam::new(ParamSpec {
     key: "epsilon",
     kind: ParamKind::Float { min: 0.0, max: 0.01 },
     default: "2.5e-5",
     description: "depth threshold of the sloped-surface rule, normalised depth (the paper's 2.5e-5)",
-};
-const KERNEL_ORDER: ParamSpec = ParamSpec {
+});
+const KERNEL_ORDER: IntParam = IntParam::new(ParamSpec {
     key: "kernel_order",
     kind: ParamKind::Int { min: 1, max: 32 },
     default: "2",
     description: "RPCF kernel order K: (K + 1)² taps (2: the paper's 3×3)",
-};
-const PENUMBRA_SIZE: ParamSpec = ParamSpec {
+});
+const PENUMBRA_SIZE: FloatParam = FloatParam::new(ParamSpec {
     key: "penumbra_size",
     kind: ParamKind::Float { min: 0.1, max: 16.0 },
     default: "1",
     description: "RPCF half-width P: taps from −P to P texels",
-};
+});
 
 const SINGLE_PARAMS: [ParamSpec; 5] = [
     depth_map_param(0),
     depth_map_param(1),
     depth_map_param(2),
-    MAX_SEARCH,
-    EPSILON,
+    MAX_SEARCH.spec(),
+    EPSILON.spec(),
 ];
 const RPCF_PARAMS: [ParamSpec; 7] = [
     depth_map_param(0),
     depth_map_param(1),
     depth_map_param(2),
-    MAX_SEARCH,
-    EPSILON,
-    KERNEL_ORDER,
-    PENUMBRA_SIZE,
+    MAX_SEARCH.spec(),
+    EPSILON.spec(),
+    KERNEL_ORDER.spec(),
+    PENUMBRA_SIZE.spec(),
 ];
 
 /// The shadow-map family's map parameters (`map_size`, `bias_constant`, `bias_slope`), with the slope
@@ -128,8 +129,8 @@ macro_rules! rbsm_algorithm {
 fn rpcf(function: Function) -> impl Fn(&Params) -> Method {
     move |params| Method::Rpcf {
         function,
-        k: params.int("kernel_order") as u32,
-        p: params.float("penumbra_size") as f32,
+        k: params.get(&KERNEL_ORDER) as u32,
+        p: params.get(&PENUMBRA_SIZE) as f32,
     }
 }
 
@@ -169,11 +170,11 @@ rbsm_algorithm!(
     |p: &Params| rpcf(Function::Rsmss)(p)
 );
 
-/// The settings of checked `params`.
-fn settings(params: &Params) -> Settings {
+/// The settings of checked `params` (which declare [`MAX_SEARCH`] and [`EPSILON`]).
+pub fn settings(params: &Params) -> Settings {
     Settings {
-        max_search: params.int("max_search") as i32,
-        epsilon: params.float("epsilon") as f32,
+        max_search: params.get(&MAX_SEARCH) as i32,
+        epsilon: params.get(&EPSILON) as f32,
     }
 }
 

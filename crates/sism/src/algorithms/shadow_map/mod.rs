@@ -22,6 +22,7 @@ pub mod lookup;
 
 use rayon::prelude::*;
 
+use super::params::{ChoiceParam, FloatParam, IntParam};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use std::ops::Range;
 
@@ -54,57 +55,76 @@ crate::declare_stats! {
 }
 
 /// The family's map parameters.
-const MAP_SIZE: ParamSpec = ParamSpec {
+pub const MAP_SIZE: IntParam = IntParam::new(ParamSpec {
     key: "map_size",
     kind: ParamKind::Int { min: 256, max: 8192 },
     default: "2048",
     description: "side of each light-view depth map, texels",
-};
-const BIAS_CONSTANT: ParamSpec = ParamSpec {
+});
+pub const BIAS_CONSTANT: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_constant",
     kind: ParamKind::Float { min: 0.0, max: 0.1 },
     default: "1e-5",
     description: "constant depth bias, normalised depth (a face's receivers span [0, 1])",
-};
-const BIAS_SLOPE: ParamSpec = ParamSpec {
+});
+pub const BIAS_SLOPE: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_slope",
     kind: ParamKind::Float { min: 0.0, max: 16.0 },
     default: "1.5",
     description: "slope-scaled depth bias: times the surface's largest depth change per texel",
-};
-const PCF_N: ParamSpec = ParamSpec {
+});
+const PCF_N: IntParam = IntParam::new(ParamSpec {
     key: "n",
     kind: ParamKind::OddInt { min: 1, max: 33 },
     default: "3",
     description: "PCF box side, texels",
-};
+});
 
-/// The depth-map parameters every method of the family takes.
-pub const MAP_PARAMS: [ParamSpec; 3] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE];
-const HARD_PARAMS: [ParamSpec; 3] = MAP_PARAMS;
-const PCF_PARAMS: [ParamSpec; 4] = [MAP_SIZE, BIAS_CONSTANT, BIAS_SLOPE, PCF_N];
-const PCSS_PARAMS: [ParamSpec; 6] = [
-    MAP_SIZE,
-    BIAS_CONSTANT,
-    BIAS_SLOPE,
-    ParamSpec {
-        key: "blocker_samples",
-        kind: ParamKind::Int { min: 1, max: 64 },
-        default: "16",
-        description: "taps of the blocker search",
-    },
-    ParamSpec {
-        key: "filter_samples",
-        kind: ParamKind::Int { min: 1, max: 256 },
-        default: "16",
-        description: "taps of the PCF filter",
-    },
+const BLOCKER_SAMPLES: IntParam = IntParam::new(ParamSpec {
+    key: "blocker_samples",
+    kind: ParamKind::Int { min: 1, max: 64 },
+    default: "16",
+    description: "taps of the blocker search",
+});
+const FILTER_SAMPLES: IntParam = IntParam::new(ParamSpec {
+    key: "filter_samples",
+    kind: ParamKind::Int { min: 1, max: 256 },
+    default: "16",
+    description: "taps of the PCF filter",
+});
+
+/// PCSS's tap pattern.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Pattern {
+    Poisson,
+    Grid,
+}
+const PATTERN: ChoiceParam<Pattern> = ChoiceParam::new(
     ParamSpec {
         key: "pattern",
         kind: ParamKind::Choice(&["poisson", "grid"]),
         default: "poisson",
         description: "tap pattern: a Poisson disk or a regular grid over the square",
     },
+    &[Pattern::Poisson, Pattern::Grid],
+);
+
+/// The depth-map parameters every method of the family takes.
+pub const MAP_PARAMS: [ParamSpec; 3] = [MAP_SIZE.spec(), BIAS_CONSTANT.spec(), BIAS_SLOPE.spec()];
+const HARD_PARAMS: [ParamSpec; 3] = MAP_PARAMS;
+const PCF_PARAMS: [ParamSpec; 4] = [
+    MAP_SIZE.spec(),
+    BIAS_CONSTANT.spec(),
+    BIAS_SLOPE.spec(),
+    PCF_N.spec(),
+];
+const PCSS_PARAMS: [ParamSpec; 6] = [
+    MAP_SIZE.spec(),
+    BIAS_CONSTANT.spec(),
+    BIAS_SLOPE.spec(),
+    BLOCKER_SAMPLES.spec(),
+    FILTER_SAMPLES.spec(),
+    PATTERN.spec(),
 ];
 
 /// `shadow-map`: the hard test.
@@ -135,7 +155,7 @@ pub static PCF: super::Algorithm = super::Algorithm {
         values: &["3", "9", "17"],
     },
     run: |inputs, params, log| {
-        let n = params.int("n") as u32;
+        let n = params.get(&PCF_N) as u32;
         run(inputs, params, log, Method::Pcf { n })
     },
 };
@@ -157,16 +177,15 @@ penumbra width",
     run: |inputs, params, log| {
         let pattern = |n: i64| {
             let n = n as usize;
-            if params.choice("pattern") == "grid" {
-                lookup::regular_grid(n)
-            } else {
-                lookup::poisson_disk(n)
+            match params.get(&PATTERN) {
+                Pattern::Grid => lookup::regular_grid(n),
+                Pattern::Poisson => lookup::poisson_disk(n),
             }
         };
         let method = Method::Pcss {
             radius: inputs.prepared.scene.light.radius,
-            blocker: pattern(params.int("blocker_samples")),
-            filter: pattern(params.int("filter_samples")),
+            blocker: pattern(params.get(&BLOCKER_SAMPLES)),
+            filter: pattern(params.get(&FILTER_SAMPLES)),
         };
         run(inputs, params, log, method)
     },
@@ -175,9 +194,9 @@ penumbra width",
 /// The map parameters of checked `params`.
 pub fn map_params(params: &Params) -> MapParams {
     MapParams {
-        size: params.int("map_size") as u32,
-        bias_constant: params.float("bias_constant") as f32,
-        bias_slope: params.float("bias_slope") as f32,
+        size: params.get(&MAP_SIZE) as u32,
+        bias_constant: params.get(&BIAS_CONSTANT) as f32,
+        bias_slope: params.get(&BIAS_SLOPE) as f32,
     }
 }
 

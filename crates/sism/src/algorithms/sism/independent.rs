@@ -16,9 +16,7 @@
 use rayon::prelude::*;
 use sism_simd::{Kernel, Simd};
 
-use super::penumbra::{
-    add_edge_terms, quad_in_bin, sample_wedge_radii, select_in_wedge, BinPart, PenumbraStats,
-};
+use super::penumbra::{add_edge_terms, BinPart, PenumbraStats, WedgeScan};
 use super::umbra::{covered, triangle_in_bin, UmbraStats};
 use super::{Occluders, StageInputs};
 use crate::exec::{task_kind, Phase};
@@ -106,11 +104,9 @@ impl Kernel for OcclusionBin<'_> {
         let mut coverage = vec![0f32; n_samples];
         let mut stamp = vec![u32::MAX; n_samples];
         let mut touched: Vec<i32> = Vec::new();
-        let mut selected = vec![0i32; n_samples + 16];
-        let radii = sample_wedge_radii(s, grid, &part, inp.light);
-        let mut reached = vec![0u32; n_samples];
-        let mut culled = [0u64; 2];
-        let (mut tested, mut evaluated) = (0u64, 0u64);
+        // Its `selected` also packs the samples behind each umbra triangle.
+        let mut wedge = WedgeScan::new(s, grid, &part, inp.light, true);
+        let mut tested = 0u64;
         let zero = s.splat_f(0.0);
         let one_f = s.splat_f(1.0);
         let lane = s.index_i();
@@ -143,7 +139,7 @@ impl Kernel for OcclusionBin<'_> {
                             let cur = s.mask_load_f(zero, m, &coverage[local..]);
                             s.mask_store_f(&mut coverage[local..], hit, s.add_f(cur, one_f));
                             let idx = s.add_i(lane, s.splat_i(local as i32));
-                            n += s.compress_store_i(&mut selected[n..], hit, idx);
+                            n += s.compress_store_i(&mut wedge.selected[n..], hit, idx);
                             tested += s.mask_popcnt(m) as u64;
                             i += 16;
                         }
@@ -152,24 +148,20 @@ impl Kernel for OcclusionBin<'_> {
                 } else {
                     // Penumbra: the edge's signed term at the samples inside its wedge.
                     let edge = &occ.silhouettes.edges[index as usize];
-                    let Some(q) = quad_in_bin(grid, bin, edge, inp.light) else {
+                    let Some(n) = wedge.select(s, edge) else {
                         continue;
                     };
-                    let n = select_in_wedge(
+                    add_edge_terms(
                         s,
-                        grid,
-                        &part,
-                        &q,
-                        &radii,
-                        &mut selected,
-                        &mut culled,
-                        Some(&mut reached),
+                        &wedge.selected[..n],
+                        positions,
+                        edge,
+                        inp.light.radius,
+                        &mut coverage,
                     );
-                    add_edge_terms(s, &selected, n, positions, edge, inp.light.radius, &mut coverage);
-                    evaluated += n as u64;
                     n
                 };
-                for &i in &selected[..n_hit] {
+                for &i in &wedge.selected[..n_hit] {
                     if stamp[i as usize] != group {
                         stamp[i as usize] = group;
                         touched.push(i);
@@ -193,6 +185,7 @@ impl Kernel for OcclusionBin<'_> {
             at = end;
         }
         s.end_task();
-        ([tested, culled[0], culled[1], evaluated], reached)
+        let ([culled_rows, culled_samples, evaluated, _], reached) = wedge.output();
+        ([tested, culled_rows, culled_samples, evaluated], reached)
     }
 }

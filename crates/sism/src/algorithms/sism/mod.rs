@@ -19,6 +19,7 @@ pub mod umbra;
 
 use glam::Vec3;
 
+use super::params::{ChoiceParam, FloatParam, IntParam};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::bvh::SceneBvh;
 use crate::exec::{Exec, FrameLog};
@@ -275,33 +276,25 @@ pub fn render_scene(scene: &Scene, topo: &SceneTopology, options: &SismOptions, 
     }
 }
 
-/// SISM's parameters (the grid's resolution).
-const GRID_PARAMS: [ParamSpec; 3] = [
-    ParamSpec {
-        key: "samples_per_column",
-        kind: ParamKind::Float { min: 1.0, max: 64.0 },
-        default: "4",
-        description: "target mean samples per grid column (image-plane cell) of a light face",
-    },
-    ParamSpec {
-        key: "slices",
-        kind: ParamKind::Int { min: 1, max: 64 },
-        default: "8",
-        description: "depth slices per column, log-spaced between a face's nearest and farthest sample",
-    },
-    ParamSpec {
-        key: "bin_columns",
-        kind: ParamKind::Int { min: 1, max: 64 },
-        default: "4",
-        description: "bin side in columns (a bin is a task of the umbra and penumbra stages)",
-    },
-];
-
-/// The light-point composition's parameters: the grid's and the estimator.
-const SAMPLED_PARAMS: [ParamSpec; 5] = [
-    GRID_PARAMS[0],
-    GRID_PARAMS[1],
-    GRID_PARAMS[2],
+const SAMPLES_PER_COLUMN: FloatParam = FloatParam::new(ParamSpec {
+    key: "samples_per_column",
+    kind: ParamKind::Float { min: 1.0, max: 64.0 },
+    default: "4",
+    description: "target mean samples per grid column (image-plane cell) of a light face",
+});
+const SLICES: IntParam = IntParam::new(ParamSpec {
+    key: "slices",
+    kind: ParamKind::Int { min: 1, max: 64 },
+    default: "8",
+    description: "depth slices per column, log-spaced between a face's nearest and farthest sample",
+});
+const BIN_COLUMNS: IntParam = IntParam::new(ParamSpec {
+    key: "bin_columns",
+    kind: ParamKind::Int { min: 1, max: 64 },
+    default: "4",
+    description: "bin side in columns (a bin is a task of the umbra and penumbra stages)",
+});
+const ESTIMATOR: ChoiceParam<sampled::LightPointEstimator> = ChoiceParam::new(
     ParamSpec {
         key: "estimator",
         kind: ParamKind::Choice(&["hybrid", "fraction"]),
@@ -309,14 +302,30 @@ const SAMPLED_PARAMS: [ParamSpec; 5] = [
         description: "hybrid: Eq. 4's analytic value where no light point sees an overlap, the lit share \
 elsewhere; fraction: the lit share everywhere",
     },
-    ParamSpec {
-        key: "ray_evaluations",
-        kind: ParamKind::Int { min: 0, max: 1 << 24 },
-        default: RAY_EVALUATIONS_DEFAULT,
-        description: "estimated Eq. 3 evaluations per sample at or above which a bin part probes what its \
+    &[
+        sampled::LightPointEstimator::Hybrid,
+        sampled::LightPointEstimator::Fraction,
+    ],
+);
+const RAY_EVALUATIONS: IntParam = IntParam::new(ParamSpec {
+    key: "ray_evaluations",
+    kind: ParamKind::Int { min: 0, max: 1 << 24 },
+    default: RAY_EVALUATIONS_DEFAULT,
+    description: "estimated Eq. 3 evaluations per sample at or above which a bin part probes what its \
 samples' shadow rays to their 64 light points cost, and casts them where they cost less than its Eq. 3 \
 work (cost-aware penumbra); 0: never",
-    },
+});
+
+/// SISM's parameters (the grid's resolution).
+const GRID_PARAMS: [ParamSpec; 3] = [SAMPLES_PER_COLUMN.spec(), SLICES.spec(), BIN_COLUMNS.spec()];
+
+/// The light-point composition's parameters: the grid's and the estimator.
+const SAMPLED_PARAMS: [ParamSpec; 5] = [
+    GRID_PARAMS[0],
+    GRID_PARAMS[1],
+    GRID_PARAMS[2],
+    ESTIMATOR.spec(),
+    RAY_EVALUATIONS.spec(),
 ];
 
 /// Default of `ray_evaluations`: below it a sample's Eq. 3 light-point work is cheaper than its 64
@@ -369,19 +378,17 @@ impl SismOptions {
     pub fn from_params(params: &Params, composition: Composition) -> SismOptions {
         SismOptions {
             grid: GridParams {
-                samples_per_column: params.float("samples_per_column") as f32,
-                slices: params.int("slices") as u32,
-                bin_columns: params.int("bin_columns") as u32,
+                samples_per_column: params.get(&SAMPLES_PER_COLUMN) as f32,
+                slices: params.get(&SLICES) as u32,
+                bin_columns: params.get(&BIN_COLUMNS) as u32,
             },
             composition,
             light_point_estimator: match composition {
-                Composition::Sampled if params.choice("estimator") == "fraction" => {
-                    sampled::LightPointEstimator::Fraction
-                }
+                Composition::Sampled => params.get(&ESTIMATOR),
                 _ => sampled::LightPointEstimator::Hybrid,
             },
             ray_evaluations: match composition {
-                Composition::Sampled => params.int("ray_evaluations") as u32,
+                Composition::Sampled => params.get(&RAY_EVALUATIONS) as u32,
                 _ => 0,
             },
             unbuilt_bvh_triangles: 0,

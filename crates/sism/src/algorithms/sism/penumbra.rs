@@ -506,20 +506,113 @@ pub fn select_in_wedge<S: Simd>(
     n
 }
 
-/// Eq. 3 on packed samples: gathers the positions of `selected[..n]` (bin-local indices into `xs`,
-/// `ys`, `zs`), evaluates edge `e`'s signed term, and adds it into `out` at the same indices.
+/// The per-quad wedge selection over one bin part: each quad is prepared for the part
+/// ([`quad_in_bin`]) and the samples inside its wedge packed into [`WedgeScan::selected`]
+/// ([`select_in_wedge`]); the compositions do their per-quad work on those samples.
+pub struct WedgeScan<'a> {
+    grid: &'a Grid,
+    part: &'a BinPart,
+    light: &'a SismLight,
+    radii: Vec<f32>,
+    /// Part-local indices of the samples inside the last quad's wedge, packed by compress-store so
+    /// the costly per-sample kernels run on full vectors (Larrabee's binning idiom); 16 lanes of
+    /// slack past the part's samples.
+    pub selected: Vec<i32>,
+    /// `[rows culled, samples culled]` over the quads so far.
+    pub culled: [u64; 2],
+    /// Samples selected over the quads so far.
+    pub evaluated: u64,
+    /// With statistics, the quads that selected each part-local sample.
+    pub reached: Option<Vec<u32>>,
+}
+
+impl<'a> WedgeScan<'a> {
+    /// Computes the part's [`sample_wedge_radii`]; `reached` keeps the quads-per-sample statistics.
+    #[inline(always)]
+    pub fn new<S: Simd>(
+        s: S,
+        grid: &'a Grid,
+        part: &'a BinPart,
+        light: &'a SismLight,
+        reached: bool,
+    ) -> WedgeScan<'a> {
+        let n = part.samples.len();
+        let selected = vec![0i32; n + 16];
+        let radii = sample_wedge_radii(s, grid, part, light);
+        WedgeScan {
+            grid,
+            part,
+            light,
+            radii,
+            selected,
+            culled: [0; 2],
+            evaluated: 0,
+            reached: reached.then(|| vec![0u32; n]),
+        }
+    }
+
+    /// Packs the samples inside `edge`'s wedge into `selected` and returns how many; `None` when its
+    /// quad misses the part.
+    #[inline(always)]
+    pub fn select<S: Simd>(&mut self, s: S, edge: &EdgeRecord) -> Option<usize> {
+        let q = quad_in_bin(self.grid, self.part.bin, edge, self.light)?;
+        let n = select_in_wedge(
+            s,
+            self.grid,
+            self.part,
+            &q,
+            &self.radii,
+            &mut self.selected,
+            &mut self.culled,
+            self.reached.as_deref_mut(),
+        );
+        self.evaluated += n as u64;
+        Some(n)
+    }
+
+    /// For each quad of `quads` (indices into `edges`) that reaches the part, `visit(edge, samples
+    /// inside its wedge)`.
+    #[inline(always)]
+    pub fn scan<'q, S: Simd>(
+        &mut self,
+        s: S,
+        edges: &[EdgeRecord],
+        quads: impl Iterator<Item = &'q u32>,
+        mut visit: impl FnMut(&EdgeRecord, &[i32]),
+    ) {
+        for &e in quads {
+            let edge = &edges[e as usize];
+            // Preparing the quad for the part (~60).
+            s.scalar_ops(60);
+            if let Some(n) = self.select(s, edge) {
+                visit(edge, &self.selected[..n]);
+            }
+        }
+    }
+
+    /// A penumbra task's output ([`run_parts`]): `[rows culled, samples culled, samples evaluated,
+    /// 0]` and the quads per part-local sample.
+    pub fn output(self) -> ([u64; 4], Vec<u32>) {
+        (
+            [self.culled[0], self.culled[1], self.evaluated, 0],
+            self.reached.unwrap_or_default(),
+        )
+    }
+}
+
+/// Eq. 3 on packed samples: gathers the positions of `selected` (bin-local indices into `xs`, `ys`,
+/// `zs`), evaluates edge `e`'s signed term, and adds it into `out` at the same indices.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn add_edge_terms<S: Simd>(
     s: S,
     selected: &[i32],
-    n: usize,
     (xs, ys, zs): (&[f32], &[f32], &[f32]),
     e: &EdgeRecord,
     light_radius: f32,
     out: &mut [f32],
 ) {
     let zero = s.splat_f(0.0);
+    let n = selected.len();
     let mut k = 0;
     while k < n {
         let m = s.mask_first_n(n - k);
@@ -620,34 +713,12 @@ impl Kernel for PenumbraBin<'_> {
     fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
         s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
-        let mut reached = vec![0u32; positions.0.len()];
-        // Bin-local indices of the samples inside one quad's wedge, packed by compress-store so the
-        // costly Eq. 3 kernel runs on full vectors (Larrabee's binning idiom).
-        let mut selected = vec![0i32; positions.0.len() + 16];
-        let radii = sample_wedge_radii(s, self.grid, self.part, self.light);
-        let mut culled = [0u64; 2];
-        let mut evaluated = 0u64;
-        for &e in self.quads {
-            let edge = &self.edges[e as usize];
-            s.scalar_ops(60);
-            let Some(q) = quad_in_bin(self.grid, self.part.bin, edge, self.light) else {
-                continue;
-            };
-            let n = select_in_wedge(
-                s,
-                self.grid,
-                self.part,
-                &q,
-                &radii,
-                &mut selected,
-                &mut culled,
-                Some(&mut reached),
-            );
-            add_edge_terms(s, &selected, n, positions, edge, self.light.radius, self.out);
-            evaluated += n as u64;
-        }
+        let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);
+        wedge.scan(s, self.edges, self.quads.iter(), |edge, selected| {
+            add_edge_terms(s, selected, positions, edge, self.light.radius, self.out);
+        });
         s.end_task();
-        ([culled[0], culled[1], evaluated, 0], reached)
+        wedge.output()
     }
 }
 

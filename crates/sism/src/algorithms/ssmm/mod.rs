@@ -21,6 +21,7 @@ pub mod lookup;
 
 use rayon::prelude::*;
 
+use super::params::{ChoiceParam, FloatParam, IntParam};
 use super::shadow_map::{self as sm, depth_map::MapParams};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::exec::FrameLog;
@@ -50,13 +51,13 @@ crate::declare_stats! {
     }
 }
 
-const MAP_SIZE: ParamSpec = ParamSpec {
+const MAP_SIZE: IntParam = IntParam::new(ParamSpec {
     key: "map_size",
     kind: ParamKind::Int { min: 256, max: 8192 },
     default: "1024",
     description: "side of the base layer of each light face's mip chain, texels",
-};
-const N: ParamSpec = ParamSpec {
+});
+const N: IntParam = IntParam::new(ParamSpec {
     key: "n",
     kind: ParamKind::Int {
         min: 2,
@@ -64,34 +65,50 @@ const N: ParamSpec = ParamSpec {
     },
     default: "4",
     description: "kernel side on every layer, texels (cost grows as (n+1)² per layer)",
-};
-const BIAS_CONSTANT: ParamSpec = ParamSpec {
+});
+const BIAS_CONSTANT: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_constant",
     kind: ParamKind::Float { min: 0.0, max: 0.1 },
     default: "1e-3",
     description: "constant depth bias, a share of the receiver's distance to the light",
-};
-const BIAS_SLOPE: ParamSpec = ParamSpec {
+});
+const BIAS_SLOPE: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_slope",
     kind: ParamKind::Float { min: 0.0, max: 16.0 },
     default: "1",
     description: "per-layer slope bias: times tan θ · the layer's texel width · (n/2 + 1) (1 clears a plane)",
-};
-const KERNEL: ParamSpec = ParamSpec {
-    key: "kernel",
-    kind: ParamKind::Choice(&["box", "pyramid"]),
-    default: "box",
-    description: "filter kernel over a layer's region: box (area-weighted) or pyramid (separable tent)",
-};
-const BLOCKER_SAMPLES: ParamSpec = ParamSpec {
+});
+const KERNEL: ChoiceParam<FilterKernel> = ChoiceParam::new(
+    ParamSpec {
+        key: "kernel",
+        kind: ParamKind::Choice(&["box", "pyramid"]),
+        default: "box",
+        description: "filter kernel over a layer's region: box (area-weighted) or pyramid (separable tent)",
+    },
+    &[FilterKernel::Box, FilterKernel::Pyramid],
+);
+const BLOCKER_SAMPLES: IntParam = IntParam::new(ParamSpec {
     key: "blocker_samples",
     kind: ParamKind::Int { min: 1, max: 64 },
     default: "16",
     description: "taps of the PCSS blocker search (Poisson disk over the nearest surface's region)",
-};
+});
 
-const FULL_PARAMS: [ParamSpec; 5] = [MAP_SIZE, N, BIAS_CONSTANT, BIAS_SLOPE, KERNEL];
-const V2_PARAMS: [ParamSpec; 6] = [MAP_SIZE, N, BIAS_CONSTANT, BIAS_SLOPE, KERNEL, BLOCKER_SAMPLES];
+const FULL_PARAMS: [ParamSpec; 5] = [
+    MAP_SIZE.spec(),
+    N.spec(),
+    BIAS_CONSTANT.spec(),
+    BIAS_SLOPE.spec(),
+    KERNEL.spec(),
+];
+const V2_PARAMS: [ParamSpec; 6] = [
+    MAP_SIZE.spec(),
+    N.spec(),
+    BIAS_CONSTANT.spec(),
+    BIAS_SLOPE.spec(),
+    KERNEL.spec(),
+    BLOCKER_SAMPLES.spec(),
+];
 
 /// `ssmm`: soft shadow mip-maps, every texel a blocker.
 pub static SSMM: super::Algorithm = super::Algorithm {
@@ -125,25 +142,21 @@ blended linearly in r",
         values: &["2", "4", "9"],
     },
     run: |inputs, params, log| {
-        let blocker = sm::lookup::poisson_disk(params.int("blocker_samples") as usize);
+        let blocker = sm::lookup::poisson_disk(params.get(&BLOCKER_SAMPLES) as usize);
         run(inputs, params, log, Variant::V2 { blocker })
     },
 };
 
 fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, variant: Variant) -> AlgorithmFrame {
-    let size = params.int("map_size") as u32;
-    let n = params.int("n") as u32;
+    let size = params.get(&MAP_SIZE) as u32;
+    let n = params.get(&N) as u32;
     let setup = Setup {
         n,
         layers: filter_size::layer_count(size, n),
         light_radius: inputs.prepared.scene.light.radius,
-        bias_constant: params.float("bias_constant") as f32,
-        bias_slope: params.float("bias_slope") as f32,
-        kernel: if params.choice("kernel") == "pyramid" {
-            FilterKernel::Pyramid
-        } else {
-            FilterKernel::Box
-        },
+        bias_constant: params.get(&BIAS_CONSTANT) as f32,
+        bias_slope: params.get(&BIAS_SLOPE) as f32,
+        kernel: params.get(&KERNEL),
         variant,
     };
     // The maps hold the surfaces' own depths: the method biases per layer.
