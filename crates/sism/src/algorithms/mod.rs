@@ -304,7 +304,7 @@ mod tests {
     /// (for reads behind a choice), fails here if any read is not declared.
     #[test]
     fn every_parameter_read_is_declared() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/plate.toml");
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/plate.toml");
         let mut scene = Scene::load(&path).unwrap();
         scene.camera.width = 48;
         scene.camera.height = 36;
