@@ -30,7 +30,9 @@ pub const TRUTH_SEED: u64 = 0x7472_7574_6800_0001;
 /// One configuration in the time-vs-error comparison.
 #[derive(Clone, Debug)]
 pub struct Candidate {
+    /// The algorithm run.
     pub algorithm: &'static Algorithm,
+    /// Its resolved parameters.
     pub params: Params,
     /// The swept setting, as printed in the table ("-" when there is none).
     pub setting: String,
@@ -150,9 +152,13 @@ pub fn render_truth(
 /// One candidate's measurements.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchRow {
+    /// The algorithm's name.
     pub algorithm: String,
+    /// Its family's name in tables.
     pub family: String,
+    /// The swept setting, as printed in the table ("-" when there is none).
     pub setting: String,
+    /// Label drawn beside the point in the plot (empty for none).
     pub label: String,
     /// Every parameter, `key=value`.
     pub params: String,
@@ -242,16 +248,25 @@ pub fn pareto_markdown(report: &BenchReport) -> String {
 /// Everything a bench run measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
+    /// The scene file.
     pub scene: PathBuf,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// Triangles in the scene.
     pub triangles: usize,
+    /// Timed renders per candidate (at least 1).
     pub repeats: u32,
+    /// Host worker threads (rayon's pool).
     pub host_threads: usize,
+    /// Name of the simd crate's selected backend.
     pub simd_backend: String,
     /// What the times measure.
     pub timing: String,
+    /// Where the truth came from.
     pub truth: TruthInfo,
+    /// One row per candidate, in candidate order.
     pub rows: Vec<BenchRow>,
 }
 
@@ -261,21 +276,32 @@ after scene load, including the reference's BVH build and SISM's scene preparati
 /// A failure of the comparison.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
+    /// `repeats` is 0.
     #[error("repeats must be at least 1")]
     NoRepeats,
+    /// No candidate to bench.
     #[error("nothing to bench")]
     NoCandidates,
+    /// The truth's image size differs from the bench's.
     #[error("the truth is {truth_w}x{truth_h}, the bench renders {width}x{height}")]
     TruthSize {
+        /// Truth image width, pixels.
         truth_w: u32,
+        /// Truth image height, pixels.
         truth_h: u32,
+        /// Bench image width, pixels.
         width: u32,
+        /// Bench image height, pixels.
         height: u32,
     },
+    /// A candidate's image could not be scored against the truth.
     #[error("scoring {algorithm} {setting} against the truth: {source}")]
     Score {
+        /// The candidate's algorithm.
         algorithm: String,
+        /// The candidate's swept setting.
         setting: String,
+        /// Why the comparison failed.
         #[source]
         source: crate::metrics::CompareError,
     },

@@ -9,54 +9,89 @@ pub enum InputError {
     /// A file could not be opened or read. (The OS error is in the message and not chained as a
     /// source, so `{:#}` does not print it twice.)
     #[error("cannot read {path}: {error}")]
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        error: std::io::Error,
+    },
     /// A path names a directory, FIFO, device or socket where a file is needed.
     #[error("{what} {path} is a {kind}, not a regular file")]
     NotAFile {
+        /// The path.
         path: PathBuf,
+        /// What the file was to be, e.g. "scene file" or "mesh".
         what: String,
+        /// What the path names instead, e.g. "directory" or "FIFO".
         kind: &'static str,
     },
     /// A file is larger than sism reads for its kind.
     #[error("{what} {path} is {bytes} bytes; at most {max} are read")]
     TooLarge {
+        /// The file.
         path: PathBuf,
+        /// What the file is, e.g. "scene file" or "mesh".
         what: String,
+        /// Its size, bytes.
         bytes: u64,
+        /// The largest size read for its kind, bytes.
         max: u64,
     },
     /// A text file holds bytes that are not UTF-8.
     #[error("{what} {path}, line {line} (byte {offset}): not valid UTF-8 text")]
     NotUtf8 {
+        /// The file.
         path: PathBuf,
+        /// What the file is, e.g. "scene file".
         what: String,
+        /// Line of the first invalid byte, 1-based.
         line: usize,
+        /// Offset of the first invalid byte from the start of the file, bytes.
         offset: usize,
     },
     /// The scene TOML does not parse, or has an unknown or mistyped key (the message carries line and
     /// column from the TOML parser).
     #[error("scene file {path}: {message}")]
-    Toml { path: PathBuf, message: String },
+    Toml {
+        /// The scene file.
+        path: PathBuf,
+        /// The TOML parser's message, with line and column.
+        message: String,
+    },
     /// A value in the scene file parsed but makes no sense (`key` is the dotted TOML path).
     #[error("scene file {path}: `{key}` {message}")]
     InvalidValue {
+        /// The scene file.
         path: PathBuf,
+        /// The dotted TOML path of the value.
         key: String,
+        /// What is wrong with it.
         message: String,
     },
     /// A Wavefront OBJ file is malformed; `line` is 1-based when it could be located.
     #[error("OBJ file {path}{}: {message}", line.map(|l| format!(", line {l}")).unwrap_or_default())]
     Obj {
+        /// The OBJ file.
         path: PathBuf,
+        /// Line of the fault, 1-based, when it could be located.
         line: Option<usize>,
+        /// What is wrong.
         message: String,
     },
     /// A mesh has no triangles at all (only points, lines, or nothing).
     #[error("mesh {path} has no triangles")]
-    EmptyMesh { path: PathBuf },
+    EmptyMesh {
+        /// The mesh file.
+        path: PathBuf,
+    },
     /// A PFM image is malformed or not what was expected.
     #[error("PFM image {path}: {message}")]
-    Pfm { path: PathBuf, message: String },
+    Pfm {
+        /// The PFM file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl InputError {

@@ -51,6 +51,7 @@ pub fn run_task<K: Kernel>(exec: Exec, k: K) -> (K::Output, Vec<TaskRecord>) {
 pub struct PhaseRecords {
     /// `phase.step` (or just `phase` for a phase of one step), e.g. `grid.classify`, `umbra`.
     pub phase: String,
+    /// The step's task records, in task order.
     pub tasks: Vec<TaskRecord>,
 }
 

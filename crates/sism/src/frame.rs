@@ -20,8 +20,11 @@ pub struct Receiver {
 /// Receivers of a whole image, row-major from the top-left pixel; `None` where the eye ray misses.
 #[derive(Clone, Debug)]
 pub struct Receivers {
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// One receiver per pixel, row-major; `None` where the eye ray misses.
     pub pixels: Vec<Option<Receiver>>,
 }
 
@@ -29,8 +32,11 @@ pub struct Receivers {
 /// [`V_FACING_AWAY`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct VisibilityImage {
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// `V` per pixel, row-major.
     pub values: Vec<f32>,
 }
 

@@ -36,6 +36,7 @@ pub struct ErrorReport {
 /// Why two images cannot be compared.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CompareError {
+    /// The images differ in size: the reference's width and height, then the test's, pixels.
     #[error("images differ in size: reference {0}x{1}, test {2}x{3}")]
     SizeMismatch(u32, u32, u32, u32),
     /// A value outside the contract: `V` in [0, 1], NaN at a miss, -1 facing away.
@@ -43,14 +44,23 @@ pub enum CompareError {
         "{image} image, pixel ({x}, {y}) holds {value}: visibility values are in [0, 1], NaN (a miss) or -1 (facing away)"
     )]
     OutOfRange {
+        /// Which image, e.g. "reference" or "test".
         image: &'static str,
+        /// Pixel column, from the left.
         x: u32,
+        /// Pixel row, from the top.
         y: u32,
+        /// The value the pixel holds.
         value: f32,
     },
     /// No pixel holds a visibility in both images.
     #[error("no pixel holds a visibility in both images (reference: {reference} receivers, test: {test}): nothing to compare")]
-    NothingToCompare { reference: u64, test: u64 },
+    NothingToCompare {
+        /// Pixels of the reference holding a visibility (`V >= 0`).
+        reference: u64,
+        /// Pixels of the test image holding a visibility (`V >= 0`).
+        test: u64,
+    },
 }
 
 /// Checks that every value of `image` is a visibility, a miss (NaN) or facing away (-1).

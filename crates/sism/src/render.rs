@@ -26,7 +26,9 @@ pub struct RenderOptions {
 
 /// Everything one render produced.
 pub struct RenderResult {
+    /// The receivers of every pixel.
     pub receivers: Receivers,
+    /// `V` per pixel.
     pub visibility: VisibilityImage,
     /// Facts about the run and every counter (algorithm, eye pass, host times).
     pub stats: StatsReport,
@@ -232,9 +234,11 @@ pub struct MachineRender {
     pub result: RenderResult,
     /// The frame's records with first-touch line ids, as a records file holds them.
     pub records: machine::CanonicalRecords,
+    /// The frame timed on the modelled machine.
     pub report: MachineReport,
     /// Host seconds of the counted render and of the replay.
     pub render_seconds: f64,
+    /// Host seconds of the replay.
     pub simulate_seconds: f64,
 }
 

@@ -12,16 +12,22 @@ use serde::Serialize;
 /// One named counter or measurement.
 #[derive(Clone, Debug, Serialize)]
 pub struct Stat {
+    /// Dotted name, e.g. `rbsm.fragments`.
     pub name: String,
+    /// The value, in `unit`.
     pub value: f64,
+    /// Unit, e.g. `fragments` or `ms`.
     pub unit: String,
+    /// What it counts or measures.
     pub description: String,
 }
 
 /// An ordered list of statistics plus free-form facts about the run (scene, algorithm, machine).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct StatsReport {
+    /// Facts as `(name, value)`, in the order added.
     pub facts: Vec<(String, String)>,
+    /// The statistics, in the order added.
     pub stats: Vec<Stat>,
 }
 

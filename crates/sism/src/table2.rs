@@ -17,14 +17,21 @@ use crate::stats::StatsReport;
 /// One of the paper's rows.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PaperRow {
+    /// Scene name, as in the paper (`palm`).
     pub scene: &'static str,
+    /// Triangle count, as printed (`44K`).
     pub triangles: &'static str,
+    /// Silhouette edge count, as printed (`--` where the paper has none).
     pub silhouettes: &'static str,
+    /// Image size, as printed (`1024x1024`).
     pub image: &'static str,
     /// ms and share (%) of data structures, hard and soft kernels; `None` where the paper has "--".
     pub data_structures: Option<(f64, f64)>,
+    /// ms and share (%) of the hard shadow kernel; `None` where the paper has "--".
     pub hard: Option<(f64, f64)>,
+    /// ms and share (%) of the soft shadow kernel; `None` where the paper has "--".
     pub soft: Option<(f64, f64)>,
+    /// Frame rate, frames per second.
     pub fps: f64,
 }
 
@@ -80,10 +87,15 @@ pub fn paper_row(scene: &str) -> Option<&'static PaperRow> {
 /// Which Table 2 group a `sism` phase belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Group {
+    /// The eye pass (`eye_pass`), reported apart from the shadow total.
     Eye,
+    /// Data structure construction: `light_samples` and `grid`.
     DataStructures,
+    /// The hard shadow kernel: `umbra`.
     Hard,
+    /// The soft shadow kernel: `silhouettes` and `penumbra`.
     Soft,
+    /// Every other phase (`resolve` and any further one).
     Other,
 }
 
@@ -103,20 +115,29 @@ pub fn group_of(phase: &str) -> Group {
 pub struct Row {
     /// The workload's name (a paper row's scene, or the file's stem).
     pub workload: String,
+    /// Scene triangles.
     pub triangles: u64,
     /// Silhouette edge records (0 for a point light: none are needed).
     pub silhouettes: u64,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
     /// Simulated ms of each group.
     pub eye_ms: f64,
+    /// Simulated ms of the data structures group.
     pub data_structures_ms: f64,
+    /// Simulated ms of the hard shadow kernel.
     pub hard_ms: f64,
+    /// Simulated ms of the soft shadow kernel.
     pub soft_ms: f64,
+    /// Simulated ms of the other phases.
     pub other_ms: f64,
     /// The simulated frame (every phase), ms.
     pub frame_ms: f64,
+    /// Cores of the modelled machine.
     pub cores: u32,
+    /// Clock of the modelled machine, GHz.
     pub clock_ghz: f64,
     /// A point light (radius 0): hard shadows, no soft shadow kernel.
     pub hard: bool,

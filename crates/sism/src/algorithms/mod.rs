@@ -78,13 +78,16 @@ pub enum BenchPlan {
     Defaults,
     /// Once per value of the parameter `key`, the others at their defaults.
     Sweep {
+        /// The swept parameter's key (declared in [`Algorithm::params`]).
         key: &'static str,
+        /// The values swept, as users would write them.
         values: &'static [&'static str],
     },
 }
 
 /// What an algorithm reads for one frame.
 pub struct FrameInputs<'a> {
+    /// The scene and its per-scene data (topology, BVH), built on first use.
     pub prepared: &'a PreparedScene<'a>,
     /// The receivers of every pixel (from the algorithm's [`ReceiverSource`]).
     pub receivers: &'a Receivers,
@@ -104,14 +107,17 @@ pub struct AlgorithmFrame {
 pub struct Algorithm {
     /// The name on the command line and in statistics.
     pub name: &'static str,
+    /// The family it is grouped under in tables and plots.
     pub family: Family,
     /// One line: what it computes.
     pub summary: &'static str,
     /// Its parameters, with defaults and ranges.
     pub params: &'static [ParamSpec],
+    /// Where its receivers come from.
     pub receivers: ReceiverSource,
     /// True when every phase runs on the simd crate's kernels, so `--machine` can count and time it.
     pub kernels: bool,
+    /// How `bench` runs it by default.
     pub bench: BenchPlan,
     /// Computes the frame's visibility. `params` were resolved against [`Algorithm::params`].
     pub run: fn(&FrameInputs<'_>, &Params, &mut FrameLog) -> AlgorithmFrame,
@@ -202,6 +208,7 @@ pub fn markdown_table() -> String {
 /// Per-scene data built on first use and reused across frames: the edge adjacency (SISM, the
 /// additive reference) and the BVH (ray tracing), each with the host time its build took.
 pub struct PreparedScene<'s> {
+    /// The scene the data is built from.
     pub scene: &'s Scene,
     topology: OnceLock<(SceneTopology, Duration)>,
     bvh: OnceLock<(SceneBvh, Duration)>,

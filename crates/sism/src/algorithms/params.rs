@@ -9,13 +9,28 @@ use std::fmt;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ParamKind {
     /// A whole number in `min..=max`.
-    Int { min: i64, max: i64 },
+    Int {
+        /// Smallest allowed value.
+        min: i64,
+        /// Largest allowed value.
+        max: i64,
+    },
     /// An odd whole number in `min..=max` (a kernel side with a centre tap).
-    OddInt { min: i64, max: i64 },
+    OddInt {
+        /// Smallest allowed value.
+        min: i64,
+        /// Largest allowed value.
+        max: i64,
+    },
     /// An unsigned 64-bit number (seeds), any value.
     U64,
     /// A finite real number in `[min, max]`.
-    Float { min: f64, max: f64 },
+    Float {
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+    },
     /// One of the names.
     Choice(&'static [&'static str]),
 }
@@ -25,6 +40,7 @@ pub enum ParamKind {
 pub struct ParamSpec {
     /// The key users write (`spp`, `slices`).
     pub key: &'static str,
+    /// What values it takes, with their range.
     pub kind: ParamKind,
     /// The default value, as users would write it; must itself be valid (a test checks).
     pub default: &'static str,
@@ -85,9 +101,13 @@ impl ParamSpec {
 /// A checked parameter value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ParamValue {
+    /// A whole number (kinds [`ParamKind::Int`] and [`ParamKind::OddInt`]).
     Int(i64),
+    /// An unsigned 64-bit number (kind [`ParamKind::U64`]).
     U64(u64),
+    /// A finite real number (kind [`ParamKind::Float`]).
     Float(f64),
+    /// One of the declared names (kind [`ParamKind::Choice`]).
     Choice(&'static str),
 }
 
@@ -106,8 +126,11 @@ impl fmt::Display for ParamValue {
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("algorithm {algorithm}: parameter `{key}` {message}")]
 pub struct ParamError {
+    /// The algorithm's name.
     pub algorithm: String,
+    /// The parameter's key.
     pub key: String,
+    /// What is wrong with the value, with the allowed range.
     pub message: String,
 }
 
@@ -147,6 +170,8 @@ impl<T> Clone for ChoiceParam<T> {
 impl<T> Copy for ChoiceParam<T> {}
 
 impl IntParam {
+    /// Wraps `spec`, whose kind must be [`ParamKind::Int`] or [`ParamKind::OddInt`] (checked in const
+    /// evaluation).
     pub const fn new(spec: ParamSpec) -> IntParam {
         assert!(
             matches!(spec.kind, ParamKind::Int { .. } | ParamKind::OddInt { .. }),
@@ -157,6 +182,7 @@ impl IntParam {
 }
 
 impl U64Param {
+    /// Wraps `spec`, whose kind must be [`ParamKind::U64`] (checked in const evaluation).
     pub const fn new(spec: ParamSpec) -> U64Param {
         assert!(matches!(spec.kind, ParamKind::U64), "a U64Param's kind is U64");
         U64Param { spec }
@@ -164,6 +190,7 @@ impl U64Param {
 }
 
 impl FloatParam {
+    /// Wraps `spec`, whose kind must be [`ParamKind::Float`] (checked in const evaluation).
     pub const fn new(spec: ParamSpec) -> FloatParam {
         assert!(
             matches!(spec.kind, ParamKind::Float { .. }),

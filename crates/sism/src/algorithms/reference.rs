@@ -147,11 +147,17 @@ impl Default for ReferenceOptions {
 /// Counts and times of a reference render.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ReferenceStats {
+    /// Primary rays cast: one per pixel.
     pub primary_rays: u64,
+    /// Pixels whose primary ray hit a surface.
     pub receivers: u64,
+    /// Receivers facing away from the light (visibility `-1`).
     pub receivers_facing_away: u64,
+    /// Shadow rays cast.
     pub shadow_rays: u64,
+    /// Host time of the primary rays.
     pub time_primary: Duration,
+    /// Host time of the shadow rays.
     pub time_shadow: Duration,
 }
 

@@ -41,19 +41,31 @@ pub const FIT_PARALLELISM: f64 = 16.0;
 /// What a benchmark fits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fits {
+    /// `vector_cycles`, on 8 independent dependency chains (the throughput).
     Vector,
     /// `vector_latency_cycles`, on one dependency chain.
     VectorLatency,
+    /// `load_store_cycles`, by streaming loads from L1.
     LoadStore,
+    /// `compress_cycles`, by compress-stores.
     Compress,
+    /// `scalar_cycles`, by integer chains reported as `scalar_ops`.
     Scalar,
+    /// `transcendental_cycles`, by divisions and square roots.
     Transcendental,
+    /// `gather_cycles`, by gathers and scatters from an L1-resident table (the mean of both).
     Gather,
+    /// `atomic_cycles`, by 16-lane fetch-adds.
     Atomic,
+    /// `l2_latency`, by streaming loads over an array that lives in L2.
     L2,
+    /// `l3_latency`, by streaming loads over an array that lives in the shared cache.
     L3,
+    /// `dram_latency_ns`, by streaming loads over an array that lives in DRAM.
     Dram,
+    /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
+    /// `barrier_cycles`, by one empty task in a step (the join).
     Barrier,
     /// Not fitted: a check of the fitted model.
     Check,
@@ -66,6 +78,7 @@ pub struct Bench {
     pub name: &'static str,
     /// What it measures.
     pub what: &'static str,
+    /// The cost it fits.
     pub fits: Fits,
     kind: Kind,
 }
@@ -115,9 +128,13 @@ enum Kind {
 /// A working-set size relative to the host's caches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Level {
+    /// Fits in L1 (a third of it).
     L1,
+    /// Fits in L2 (half of it).
     L2,
+    /// Fits in the shared cache (half of it).
     L3,
+    /// Lives in DRAM (eight times the largest cache, at least 64 MiB).
     Dram,
 }
 
@@ -327,6 +344,7 @@ pub const BENCHES: &[Bench] = &[
 /// A benchmark's measurement.
 #[derive(Clone, Debug)]
 pub struct Measured {
+    /// The benchmark.
     pub bench: Bench,
     /// Median host time of one run, ns.
     pub host_ns: f64,
@@ -793,6 +811,7 @@ pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
 /// A fitted host model and the evidence.
 #[derive(Clone, Debug)]
 pub struct Calibration {
+    /// The fitted machine.
     pub config: MachineConfig,
     /// Per benchmark: measured and predicted ns of one run, after the fit.
     pub rows: Vec<(Bench, f64, f64)>,

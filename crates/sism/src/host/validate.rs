@@ -24,6 +24,7 @@ pub const MAJOR_PHASES: &[&str] = &["eye_pass", "grid", "umbra", "penumbra"];
 pub struct Row {
     /// Scene name (file stem).
     pub scene: String,
+    /// The algorithm's name.
     pub algorithm: String,
     /// Host threads of the native run = cores of the model.
     pub threads: u32,

@@ -188,8 +188,11 @@ pub fn family_of(vendor: &str, family: u32, model: u32) -> &'static CpuFamily {
 pub struct HostFacts {
     /// `model name` of `/proc/cpuinfo` (or `unknown`).
     pub model_name: String,
+    /// `vendor_id` of `/proc/cpuinfo` (empty when missing).
     pub vendor: String,
+    /// `cpu family` of `/proc/cpuinfo` (0 when missing).
     pub family: u32,
+    /// `model` of `/proc/cpuinfo` (0 when missing).
     pub model: u32,
     /// Clock, GHz.
     pub clock_ghz: f64,

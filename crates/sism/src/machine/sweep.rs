@@ -21,9 +21,13 @@ pub struct SweepAxes {
 /// One simulated configuration of a sweep.
 #[derive(Clone, Debug)]
 pub struct SweepPoint {
+    /// Cores.
     pub cores: u32,
+    /// Hardware threads per core.
     pub threads: u32,
+    /// L2 subset size per core, KB.
     pub l2_kb: u32,
+    /// The frame's simulation on this configuration.
     pub report: MachineReport,
 }
 

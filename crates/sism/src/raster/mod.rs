@@ -50,6 +50,7 @@ pub const NO_TRIANGLE: u32 = u32::MAX;
 /// orientation) and its near plane.
 #[derive(Clone, Copy, Debug)]
 pub struct RasterView {
+    /// The pinhole frame: eye, orientation, field of view and image size.
     pub frame: CameraFrame,
     /// Near-plane distance along the view direction, world units, > 0: nearer geometry is clipped.
     pub z_near: f32,
@@ -118,6 +119,7 @@ pub trait TileResolve: Sync {
 /// A tile's pieces of one per-pixel output buffer: one slice of at most [`TILE`] pixels per image
 /// row of the tile, top to bottom. Uninitialised on entry; a resolve writes every element.
 pub struct TileRows<'a, T> {
+    /// One slice per image row of the tile, top to bottom, at most [`TILE`] pixels each.
     pub rows: Vec<&'a mut [MaybeUninit<T>]>,
 }
 
@@ -739,7 +741,9 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
 pub struct TileTriangles {
     /// Unit geometric normal of the source triangle, `(b - a) x (c - a)` normalised (not flipped).
     pub nx: Vec<f32>,
+    /// `y` of the unit geometric normal.
     pub ny: Vec<f32>,
+    /// `z` of the unit geometric normal.
     pub nz: Vec<f32>,
     /// `normal · (corner - eye)`, world units: the plane's signed distance from the view's eye.
     pub plane_dist: Vec<f32>,
@@ -748,6 +752,7 @@ pub struct TileTriangles {
     /// The plane of `1/z` (view depth) in screen space: its change per pixel along x and y,
     /// 1/world units per pixel (depth maps scale their slope bias with it).
     pub inv_z_dx: Vec<f32>,
+    /// Change of `1/z` per pixel along y, 1/world units per pixel.
     pub inv_z_dy: Vec<f32>,
 }
 

@@ -86,15 +86,21 @@ fn default_up() -> [f32; 3] {
 /// The camera's orthonormal frame, derived once: `d(i, j)` per CONTRACTS.md.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraFrame {
+    /// Eye position, world units.
     pub eye: Vec3,
+    /// Unit view direction.
     pub forward: Vec3,
+    /// Unit image-plane right direction.
     pub right: Vec3,
+    /// Unit image-plane up direction, orthogonal to `forward` and `right`.
     pub up: Vec3,
     /// `tan(fov_y / 2)`.
     pub tan_half_fov: f32,
     /// `width / height`.
     pub aspect: f32,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
 }
 
@@ -201,8 +207,11 @@ impl Light {
 pub struct Scene {
     /// The scene file it came from (for messages and statistics).
     pub source: PathBuf,
+    /// The meshes, in world space.
     pub meshes: Vec<Mesh>,
+    /// The camera.
     pub camera: Camera,
+    /// The light.
     pub light: Light,
 }
 

@@ -29,9 +29,11 @@ pub const PATCH_MAX_ANGLE_DEG: f32 = 60.0;
 pub struct EdgeTopology {
     /// Endpoints, world space.
     pub a: Vec3,
+    /// Second endpoint, world space.
     pub b: Vec3,
     /// Range into [`SceneTopology::edge_triangles`].
     pub first: u32,
+    /// Triangles using it: the length of its range in [`SceneTopology::edge_triangles`].
     pub count: u32,
     /// Connected component of its triangles (see [`SceneTopology::component`]).
     pub component: u32,
@@ -59,6 +61,7 @@ pub struct SceneTopology {
     /// edges whose two triangles' normals agree within [`PATCH_MAX_ANGLE_DEG`] (a leaf, not the
     /// cluster of leaves it hangs in, which overlap one another like separate occluders).
     pub object: Vec<u32>,
+    /// Every edge of every mesh (welded corners), once, with the triangles using it.
     pub edges: Vec<EdgeTopology>,
     /// For each edge's triangles: (triangle index, the triangle's vertex opposite the edge).
     pub edge_triangles: Vec<(u32, Vec3)>,

@@ -37,8 +37,11 @@ pub fn run_local(
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Label {
+    /// The scene's name (its file's stem).
     pub name: String,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
 }
 
@@ -52,9 +55,13 @@ pub struct Point {
     pub index: usize,
     /// The configuration's name (`<base>-c<cores>-t<threads>-l2<kb>`).
     pub name: String,
+    /// Cores.
     pub cores: u32,
+    /// Hardware threads per core.
     pub threads: u32,
+    /// L2 subset size per core, KB.
     pub l2_kb: u32,
+    /// Clock, GHz.
     pub clock_ghz: f64,
     /// One row per step, in frame order.
     pub steps: Vec<Row>,
@@ -68,14 +75,23 @@ pub struct Point {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Row {
+    /// `frame`, a phase (`grid`) or a step (`grid.classify`).
     pub phase: String,
+    /// Tasks replayed.
     pub tasks: u64,
+    /// Cycles from the start to the end of the barrier.
     pub cycles: u64,
+    /// `cycles` at the clock, ms.
     pub ms: f64,
+    /// Where the cycles went.
     pub stack: Stack,
+    /// Average fraction of the vector lanes active per vector instruction, in [0, 1].
     pub lane_utilisation: f64,
+    /// L1 misses per access (0 with no access).
     pub l1_miss_rate: f64,
+    /// L2 misses per L2 lookup (0 with no lookup).
     pub l2_miss_rate: f64,
+    /// Bytes moved between DRAM and L2 (fills and write-backs).
     pub bytes_dram: u64,
 }
 
@@ -83,9 +99,13 @@ pub struct Row {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Stack {
+    /// Cycles issuing instructions.
     pub issue: u64,
+    /// Cycles of memory stalls not hidden by other threads, and of DRAM bandwidth limits.
     pub memory: u64,
+    /// Cycles of vector atomics (with conflicts) and the phase-end barrier.
     pub atomics_sync: u64,
+    /// Cycles cores idle while the busiest core finishes (load imbalance), or with no work.
     pub imbalance_idle: u64,
 }
 

@@ -153,8 +153,11 @@ pub struct Manifest {
     pub scene: String,
     /// The scene's name (file stem) and image size, for the plots.
     pub scene_name: String,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// The algorithm's name.
     pub algorithm: String,
     /// Every parameter of the algorithm, `key=value`, space-separated.
     pub params: String,
@@ -164,6 +167,7 @@ pub struct Manifest {
     pub machine_checksum: String,
     /// `records.bin`'s size and checksum.
     pub records_bytes: u64,
+    /// Checksum of `records.bin`, hex.
     pub records_checksum: String,
     /// Points per array task.
     pub chunk: usize,
@@ -173,14 +177,21 @@ pub struct Manifest {
     pub point: Vec<ManifestPoint>,
 }
 
+/// One point of the sweep in `manifest.toml`: its configuration, array task and machine file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ManifestPoint {
+    /// Position in the sweep.
     pub index: usize,
+    /// The array task that simulates it.
     pub task: usize,
+    /// The configuration's name (`<base>-c<cores>-t<threads>-l2<kb>`).
     pub name: String,
+    /// Cores.
     pub cores: u32,
+    /// Hardware threads per core.
     pub threads: u32,
+    /// L2 subset size per core, KB.
     pub l2_kb: u32,
     /// `machines/point-NNNN.toml`.
     pub machine: String,
@@ -196,10 +207,13 @@ pub struct TaskResult {
     pub format: String,
     /// The checksum of the manifest the task ran.
     pub manifest_checksum: String,
+    /// The array task.
     pub task: usize,
     /// Where it ran and how long it took (facts only).
     pub host: String,
+    /// Wall time of the task, seconds.
     pub seconds: f64,
+    /// The task's points, in sweep order.
     pub points: Vec<Point>,
 }
 
@@ -215,6 +229,7 @@ impl Manifest {
         hex(toml::to_string(&m).expect("plain struct serialises").as_bytes())
     }
 
+    /// The points array task `task` simulates, in sweep order.
     pub fn points_of(&self, task: usize) -> impl Iterator<Item = &ManifestPoint> {
         self.point.iter().filter(move |p| p.task == task)
     }
@@ -231,14 +246,17 @@ impl Manifest {
     }
 }
 
+/// `manifest.toml` in the study directory `dir`.
 pub fn manifest_path(dir: &Path) -> PathBuf {
     dir.join("manifest.toml")
 }
 
+/// `results/task-K.json` of array task `task` in the study directory `dir`.
 pub fn result_path(dir: &Path, task: usize) -> PathBuf {
     dir.join("results").join(format!("task-{task}.json"))
 }
 
+/// `logs/task-K.out`, the log of array task `task` in the study directory `dir`.
 pub fn log_path(dir: &Path, task: usize) -> PathBuf {
     dir.join("logs").join(format!("task-{task}.out"))
 }

@@ -34,10 +34,13 @@ const MAX_COORD: f32 = 1e15;
 /// One frame's view of the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TraceFrame {
+    /// Eye position, world units.
     pub eye: Vec3,
+    /// A point the camera looks at, world units.
     pub look_at: Vec3,
     /// Vertical field of view, degrees.
     pub fov_y_deg: f32,
+    /// Light centre, world units.
     pub light_center: Vec3,
     /// Light radius, world units.
     pub light_radius: f32,
@@ -50,6 +53,7 @@ pub struct TraceFrame {
 pub struct Trace {
     /// The scene file, as written in the trace (relative to the trace's folder unless absolute).
     pub scene: PathBuf,
+    /// The frames, in order.
     pub frames: Vec<TraceFrame>,
 }
 
@@ -57,9 +61,11 @@ pub struct Trace {
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("{path}:{line}: {message}")]
 pub struct TraceError {
+    /// The trace file.
     pub path: String,
     /// 1-based line number (0 for the file as a whole).
     pub line: usize,
+    /// What is wrong.
     pub message: String,
 }
 

@@ -60,13 +60,19 @@ crate::declare_stats! {
         pub samples_used: u64 => ("adaptive.samples_used", "samples", "light samples rendered (one set of depth maps each)"),
         /// Nodes evaluated at levels 0..=3.
         pub evaluated_0: u64 => ("adaptive.nodes_evaluated.l0", "nodes", "quadtree nodes evaluated at level 0"),
+        /// Nodes evaluated at level 1.
         pub evaluated_1: u64 => ("adaptive.nodes_evaluated.l1", "nodes", "quadtree nodes evaluated at level 1"),
+        /// Nodes evaluated at level 2.
         pub evaluated_2: u64 => ("adaptive.nodes_evaluated.l2", "nodes", "quadtree nodes evaluated at level 2"),
+        /// Nodes evaluated at level 3.
         pub evaluated_3: u64 => ("adaptive.nodes_evaluated.l3", "nodes", "quadtree nodes evaluated at level 3"),
         /// Nodes refined (subdivided) at levels 0..=3.
         pub refined_0: u64 => ("adaptive.nodes_refined.l0", "nodes", "quadtree nodes refined at level 0"),
+        /// Nodes refined at level 1.
         pub refined_1: u64 => ("adaptive.nodes_refined.l1", "nodes", "quadtree nodes refined at level 1"),
+        /// Nodes refined at level 2.
         pub refined_2: u64 => ("adaptive.nodes_refined.l2", "nodes", "quadtree nodes refined at level 2"),
+        /// Nodes refined at level 3.
         pub refined_3: u64 => ("adaptive.nodes_refined.l3", "nodes", "quadtree nodes refined at level 3"),
         /// Receivers in the penumbra (`VM = 0.5`): the weighted mean of the samples.
         pub penumbra: u64 => ("adaptive.penumbra_receivers", "receivers", "receivers in the visibility map's penumbra (VM = 0.5): the weighted mean of every sample"),

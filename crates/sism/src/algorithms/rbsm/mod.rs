@@ -29,7 +29,14 @@ pub enum Method {
     /// One fragment's `v_SMSR` or `v_RSMSS`.
     Single(Function),
     /// RPCF over `(K + 1)²` taps of `function` (kernel order `k`, penumbra size `p` texels).
-    Rpcf { function: Function, k: u32, p: f32 },
+    Rpcf {
+        /// The visibility function evaluated at each tap.
+        function: Function,
+        /// Kernel order `K`: `(K + 1)²` taps (1..=32).
+        k: u32,
+        /// Penumbra half-width `P`, texels: taps from `−P` to `P`.
+        p: f32,
+    },
 }
 
 crate::declare_stats! {
@@ -49,12 +56,15 @@ crate::declare_stats! {
     }
 }
 
+/// The `max_search` parameter: steps of an ONDS walk, texels (1..=256).
 pub const MAX_SEARCH: IntParam = IntParam::new(ParamSpec {
     key: "max_search",
     kind: ParamKind::Int { min: 1, max: 256 },
     default: "16",
     description: "steps of an ONDS walk (the paper's maximum edge length), texels",
 });
+/// The `epsilon` parameter: depth threshold of the sloped-surface rule, normalised depth
+/// (`[0, 0.01]`).
 pub const EPSILON: FloatParam = FloatParam::new(ParamSpec {
     key: "epsilon",
     kind: ParamKind::Float { min: 0.0, max: 0.01 },
@@ -209,7 +219,9 @@ fn run(inputs: &FrameInputs<'_>, params: &Params, log: &mut FrameLog, method: Me
 /// What the lookup tasks report.
 #[derive(Default)]
 pub struct LookupOut {
+    /// Receivers tested against the maps.
     pub fragments: u64,
+    /// Receivers whose result differs from the plain hard test's.
     pub differs_from_hard: u64,
     /// Steps of every flagged fragment.
     pub steps: Vec<u32>,

@@ -24,7 +24,9 @@ use super::super::shadow_map::depth_map::{FaceMap, Lookup};
 /// Which visibility function.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Function {
+    /// `v_SMSR`, the paper-era (Unoptimized) version (§3).
     Smsr,
+    /// `v_RSMSS`, the ReallyOptimized version (§4), with the speck filter.
     Rsmss,
 }
 
@@ -39,6 +41,7 @@ pub struct Settings {
 
 /// A depth map as the functions read it: `D(x, y)`, −∞ outside.
 pub trait DepthTexels {
+    /// Depth of texel `(x, y)`, normalised; −∞ outside the map.
     fn depth(&self, x: i64, y: i64) -> f32;
     /// Is texel `(x, y)` inside the map?
     fn inside(&self, x: i64, y: i64) -> bool;

@@ -52,6 +52,7 @@ pub struct MapParams {
 pub struct FaceMap {
     /// The face (axis and image-plane basis) and the light point it looks from.
     pub face: LightFace,
+    /// The light point the map looks from, world space.
     pub origin: Vec3,
     /// `tan` of the half field of view: the image plane spans `[-extent, extent]²`.
     pub extent: f32,
@@ -74,6 +75,7 @@ pub struct LightMaps {
     /// One per face of the light view; a face no receiver falls in has an empty `depth` (not
     /// rendered; no lookup reads it).
     pub faces: Vec<FaceMap>,
+    /// True for a cube of six faces, false for a single frustum.
     pub is_cube: bool,
 }
 

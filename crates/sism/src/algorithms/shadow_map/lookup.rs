@@ -34,13 +34,17 @@ pub enum Method {
     /// outside the map). The distance map of the contact-hardening methods.
     OccluderDistance,
     /// The mean of the hard tests over an `n × n` box of texels centred on the receiver's (`n` odd).
-    Pcf { n: u32 },
+    Pcf {
+        /// Box side, texels (odd).
+        n: u32,
+    },
     /// Percentage-closer soft shadows (Fernando 2005), see [`super`].
     Pcss {
         /// Light radius, world units.
         radius: f32,
         /// Blocker-search taps and filter taps, in the unit disk (or square), map-texel space.
         blocker: Vec<Vec2>,
+        /// Filter taps, in the unit disk (or square), map-texel space.
         filter: Vec<Vec2>,
     },
 }
@@ -70,14 +74,18 @@ impl std::ops::AddAssign for LookupCounts {
 /// One lookup task: `samples` of one face (relative to the light centre, plus `shift` to the map's
 /// light point), their visibility written to `out`.
 pub struct LookupTask<'a> {
+    /// The face's depth map.
     pub map: &'a FaceMap,
     /// The frame's receivers (a sample's normal is its pixel's).
     pub receivers: &'a [Option<Receiver>],
     /// `light centre − map origin`: added to a sample's `q` for its position relative to the map's
     /// light point.
     pub shift: Vec3,
+    /// The samples to look up, all of this face.
     pub samples: &'a [SampleIn],
+    /// What to compute per sample.
     pub method: &'a Method,
+    /// One output per sample of `samples`: the method's value (visibility for most methods).
     pub out: &'a mut [f32],
 }
 

@@ -61,12 +61,15 @@ pub const MAP_SIZE: IntParam = IntParam::new(ParamSpec {
     default: "2048",
     description: "side of each light-view depth map, texels",
 });
+/// The `bias_constant` parameter: constant depth bias, normalised depth (`[0, 0.1]`).
 pub const BIAS_CONSTANT: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_constant",
     kind: ParamKind::Float { min: 0.0, max: 0.1 },
     default: "1e-5",
     description: "constant depth bias, normalised depth (a face's receivers span [0, 1])",
 });
+/// The `bias_slope` parameter: slope-scaled depth bias, times the surface's largest depth
+/// change per texel (`[0, 16]`).
 pub const BIAS_SLOPE: FloatParam = FloatParam::new(ParamSpec {
     key: "bias_slope",
     kind: ParamKind::Float { min: 0.0, max: 16.0 },

@@ -17,7 +17,9 @@ pub const CHUNK: usize = 4096;
 /// in increasing item order.
 #[derive(Clone, Debug, Default)]
 pub struct BinLists {
+    /// Start of each bin's items in `items`, then the end: bins + 1 entries.
     pub offsets: Vec<u32>,
+    /// Item indices of every bin, bin after bin.
     pub items: Vec<u32>,
 }
 

@@ -73,10 +73,15 @@ impl Default for GridParams {
 /// face coordinates, and the pixel it shades.
 #[derive(Clone, Copy, Debug)]
 pub struct SampleIn {
+    /// Position relative to the light centre, world units.
     pub q: Vec3,
+    /// Its light face (index into the light view's faces).
     pub face: u8,
+    /// Image-plane position in its face.
     pub uv: Vec2,
+    /// Depth along the face axis, world units.
     pub depth: f32,
+    /// The pixel it shades (row-major index).
     pub pixel: u32,
     /// Cosine between the receiver normal and the direction to the light centre, in (0, 1].
     pub cos_theta: f32,
@@ -85,6 +90,7 @@ pub struct SampleIn {
 /// The grid laid over one light face.
 #[derive(Clone, Copy, Debug)]
 pub struct FaceGrid {
+    /// The light face it covers.
     pub face: LightFace,
     /// Image-plane position of the grid's lower corner.
     pub uv_min: Vec2,
@@ -98,6 +104,7 @@ pub struct FaceGrid {
     pub first_bin: u32,
     /// Nearest and farthest sample depth in this face (world units along the face axis).
     pub z_min: f32,
+    /// Farthest sample depth in this face (world units along the face axis).
     pub z_max: f32,
     /// Slices per unit of `ln(z)`: `slices / ln(z_max / z_min)`.
     pub slice_scale: f32,
@@ -152,16 +159,19 @@ impl FaceGrid {
 /// One bin: `bin_columns^2` columns of one face, a task of the umbra and penumbra stages.
 #[derive(Clone, Debug)]
 pub struct Bin {
+    /// Index of its face in [`Grid::faces`].
     pub face: u32,
     /// First column (u, v) of the bin in its face grid.
     pub column0: UVec2,
     /// Image-plane rectangle of the bin.
     pub uv_min: Vec2,
+    /// Upper corner of the bin's image-plane rectangle.
     pub uv_max: Vec2,
     /// Range of the bin's samples in the sorted arrays.
     pub samples: Range<u32>,
     /// Nearest and farthest sample depth in the bin (0 and 0 when empty).
     pub z_min: f32,
+    /// Farthest sample depth in the bin (0 when empty).
     pub z_max: f32,
 }
 
@@ -170,10 +180,13 @@ pub struct Bin {
 pub struct SortedSamples {
     /// Position relative to the light centre, world axes.
     pub x: Vec<f32>,
+    /// `y` of the position relative to the light centre, world axes.
     pub y: Vec<f32>,
+    /// `z` of the position relative to the light centre, world axes.
     pub z: Vec<f32>,
     /// Image-plane position in the sample's light face.
     pub u: Vec<f32>,
+    /// `v` of the image-plane position in the sample's light face.
     pub v: Vec<f32>,
     /// Depth along the face axis.
     pub depth: Vec<f32>,
@@ -186,12 +199,16 @@ pub struct SortedSamples {
 /// The grid over all light faces.
 #[derive(Clone, Debug)]
 pub struct Grid {
+    /// The parameters it was built with.
     pub params: GridParams,
+    /// One per light face.
     pub faces: Vec<FaceGrid>,
+    /// Every bin, face after face (a face's first at [`FaceGrid::first_bin`]).
     pub bins: Vec<Bin>,
     /// `cell_start[c]..cell_start[c + 1]` are cell `c`'s samples; cells are numbered bin-major, then
     /// column row-major within the bin, then slice. Length: cells + 1.
     pub cell_start: Vec<u32>,
+    /// The samples, sorted by cell.
     pub samples: SortedSamples,
 }
 

@@ -59,8 +59,11 @@ pub fn visible_fraction(
 
 /// One bin of the fused pass.
 pub struct OcclusionBin<'a> {
+    /// What every occlusion stage reads.
     pub inputs: &'a StageInputs<'a>,
+    /// The occluders binned into the grid.
     pub occluders: &'a Occluders<'a>,
+    /// Index of the bin in the grid's bins.
     pub bin: usize,
     /// Visible fraction of the bin's samples (bin-local), starting at 1.
     pub out: &'a mut [f32],

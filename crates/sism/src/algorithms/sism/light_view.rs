@@ -47,6 +47,7 @@ impl LightFace {
 /// The light's views and, for each sample, the face it belongs to.
 #[derive(Clone, Debug)]
 pub struct LightView {
+    /// The views: one frustum, or the six cube faces.
     pub faces: Vec<LightFace>,
     /// True when the six cube faces are used.
     pub is_cube: bool,

@@ -49,7 +49,9 @@ pub enum Composition {
 /// Settings of the SISM algorithm.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SismOptions {
+    /// How the grid is laid over the light faces.
     pub grid: GridParams,
+    /// How the occluders' coverages combine.
     pub composition: Composition,
     /// Estimator of the light-point composition (`Composition::Sampled` only).
     pub light_point_estimator: sampled::LightPointEstimator,
@@ -104,8 +106,11 @@ impl SismLight {
 /// What every occlusion stage reads: the scene's topology, the light and the grid.
 #[derive(Clone, Copy)]
 pub struct StageInputs<'a> {
+    /// The scene's topology (triangles, edges, objects).
     pub topo: &'a SceneTopology,
+    /// The light.
     pub light: &'a SismLight,
+    /// The grid over the light faces, with the sorted samples.
     pub grid: &'a Grid,
 }
 
@@ -115,6 +120,7 @@ pub struct StageInputs<'a> {
 pub struct Occluders<'a> {
     /// Counted triangles per bin.
     pub triangles: &'a BinLists,
+    /// The frame's silhouette edges and their objects.
     pub silhouettes: &'a Silhouettes,
     /// Silhouette edges (penumbra quads) per bin.
     pub quads: &'a BinLists,
@@ -124,15 +130,20 @@ crate::declare_stats! {
     /// Counters of one SISM frame (the eye pass's are the caller's).
     #[derive(Clone, Debug, Default)]
     pub struct SismStats {
+        /// The grid stage's counters.
         pub grid: GridStats => nested,
+        /// The umbra stage's counters.
         pub umbra: UmbraStats => nested,
+        /// The penumbra stage's counters.
         pub penumbra: PenumbraStats => nested,
     }
 }
 
 /// One SISM frame's result.
 pub struct SismFrame {
+    /// `V` per pixel.
     pub visibility: VisibilityImage,
+    /// The stages' counters.
     pub stats: SismStats,
 }
 
@@ -250,8 +261,11 @@ pub fn render_frame<'a>(
 
 /// A whole SISM frame of a scene, outside the registry.
 pub struct SceneFrame {
+    /// The eye pass's receivers, one per pixel.
     pub receivers: Receivers,
+    /// `V` per pixel.
     pub visibility: VisibilityImage,
+    /// The stages' counters.
     pub stats: SismStats,
     /// The eye pass's counts.
     pub eye: crate::raster::RasterStats,

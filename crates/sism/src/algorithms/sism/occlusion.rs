@@ -235,11 +235,13 @@ pub struct EdgeFrame<S: Simd> {
     /// Clipped endpoint positions along the line (from the foot of the perpendicular, in disk radii,
     /// direction `g`), `-√(1-d²) ≤ lo < hi ≤ √(1-d²)`.
     pub lo: S::F32,
+    /// Upper clipped endpoint position along the line, in disk radii (see `lo`).
     pub hi: S::F32,
     /// Unit normal of the light disk, from the sample towards the light centre.
     pub nh: V3<S>,
     /// The projected line's direction (world axes, unnormalised) and its length `|g|`.
     pub g: V3<S>,
+    /// `|g|`, the length of `g`.
     pub gl: S::F32,
     /// `m·(c - p)`: on which side of the edge's plane the light centre lies (its sign puts the line on
     /// the `+f` side with `f = -sign(sc) · (g × n̂) / |g|`, `sc = 0` counting as positive).

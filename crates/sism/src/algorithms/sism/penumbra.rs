@@ -324,10 +324,15 @@ pub fn run_parts<'a, T, K, F>(
 
 /// The per-bin penumbra task.
 pub struct PenumbraBin<'a> {
+    /// The frame's silhouette edge records (relative to the light centre).
     pub edges: &'a [EdgeRecord],
+    /// The light.
     pub light: &'a SismLight,
+    /// The grid.
     pub grid: &'a Grid,
+    /// The part of the bin this task covers.
     pub part: &'a BinPart,
+    /// The bin's penumbra quads: indices into `edges`.
     pub quads: &'a [u32],
     /// Penumbra sums of the part's samples (part-local indices).
     pub out: &'a mut [f32],
@@ -338,10 +343,13 @@ pub struct PenumbraBin<'a> {
 pub struct QuadInBin {
     /// Columns of the bin it may reach, `[c0, c1)`.
     pub c0: UVec2,
+    /// End (exclusive) of the columns of the bin it may reach.
     pub c1: UVec2,
     /// Projected (clipped) edge: endpoint `a`, direction `ab`, `1 / |ab|^2` (0 for a point).
     pub a: Vec2,
+    /// The projected (clipped) edge's other endpoint.
     pub b: Vec2,
+    /// `1 / |ab|^2` (0 for a point).
     pub inv_len2: f32,
     /// `1 / z` of the edge's nearest point.
     pub inv_near: f32,
@@ -631,8 +639,11 @@ pub fn add_edge_terms<S: Simd>(
 /// range `samples` of the sorted arrays. Kernels index the part's samples part-locally.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BinPart {
+    /// Index of the bin in [`Grid::bins`].
     pub bin: usize,
+    /// The face column rows it covers, `[start, end)`.
     pub rows: std::ops::Range<u32>,
+    /// Its samples: a contiguous range of the sorted arrays.
     pub samples: std::ops::Range<usize>,
 }
 

@@ -20,7 +20,9 @@ use crate::frame::VisibilityImage;
 pub enum Occlusion {
     /// Eq. 4: depth complexity and, unless the light is a point, penumbra sums; `V = 1 - clamp01(sum)`.
     Additive {
+        /// Depth complexity per sample: counted occluder triangles between it and the light centre.
         umbra: Vec<i32>,
+        /// Penumbra sum per sample; `None` for a point light.
         penumbra: Option<Vec<f32>>,
     },
     /// Composed elsewhere (independent occluders, light points): the visible fraction so far,
@@ -30,6 +32,7 @@ pub enum Occlusion {
 
 /// Computes the visibility of the samples `first..first + out.len()`.
 pub struct Resolve<'a> {
+    /// The grid whose sorted samples are resolved.
     pub grid: &'a Grid,
     /// Composition of the occluders' coverages.
     pub occlusion: &'a Occlusion,
@@ -37,6 +40,7 @@ pub struct Resolve<'a> {
     pub light_radius: f32,
     /// First sorted sample of this task; `out` holds the visibility of `out.len()` samples from it.
     pub first: usize,
+    /// Visibility of the task's samples, from `first` on, in sorted order.
     pub out: &'a mut [f32],
 }
 

@@ -22,7 +22,9 @@ pub const CHUNK: usize = 4096;
 /// ([`SceneTopology::object`]) of each.
 #[derive(Clone, Debug, Default)]
 pub struct Silhouettes {
+    /// Silhouette edge records, relative to the light centre.
     pub edges: Vec<EdgeRecord>,
+    /// Object of each edge, parallel to `edges`.
     pub objects: Vec<u32>,
 }
 

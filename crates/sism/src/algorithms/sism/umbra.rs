@@ -216,10 +216,15 @@ pub fn depth_complexity(
 
 /// The per-bin umbra task.
 pub struct UmbraBin<'a> {
+    /// The scene's topology, whose triangles `triangles` indexes.
     pub topo: &'a SceneTopology,
+    /// Light centre, world units: triangles are tested relative to it.
     pub light_center: Vec3,
+    /// The grid.
     pub grid: &'a Grid,
+    /// Index of the bin in [`Grid::bins`].
     pub bin: usize,
+    /// The bin's counted triangles: indices into the topology's triangles.
     pub triangles: &'a [u32],
     /// Depth complexity of the bin's samples (bin-local indices).
     pub out: &'a mut [i32],
@@ -230,6 +235,7 @@ pub struct UmbraBin<'a> {
 pub struct TriangleInBin {
     /// Columns of the bin it may cover, `[c0, c1)`.
     pub c0: UVec2,
+    /// End (exclusive) of the columns of the bin it may cover.
     pub c1: UVec2,
     /// First depth slice that can lie behind it.
     pub first_slice: u32,
@@ -237,6 +243,7 @@ pub struct TriangleInBin {
     pub edge_planes: [Vec3; 3],
     /// Plane `n · x = k` of the triangle (relative to the light centre); `k != 0`.
     pub n: Vec3,
+    /// Offset `k` of the plane `n · x = k` (nonzero).
     pub k: f32,
 }
 

@@ -18,13 +18,16 @@ const ROWS_PER_TASK: usize = 16;
 /// One level: `side × side` inverse distances, row-major from the map's top row.
 #[derive(Clone, Debug, Default)]
 pub struct Level {
+    /// Texels a side: `⌈size / 2^i⌉` for level `i` of a `size`-texel map.
     pub side: u32,
+    /// Inverse distance `1 / d` per texel, 1/world units (0 where nothing is seen).
     pub inv: Vec<f32>,
 }
 
 /// A face's chain, finest level first; empty for a face without a map.
 #[derive(Clone, Debug, Default)]
 pub struct MipChain {
+    /// The levels, finest (one per map texel) first.
     pub levels: Vec<Level>,
     /// The largest inverse distance of the map (its nearest surface), 1/world units; 0 when it sees
     /// nothing.

@@ -59,7 +59,10 @@ pub enum Variant {
     /// Every texel a blocker with its own filter size.
     Full,
     /// PCSS's blocker search (taps in the unit disk), one filter size per receiver.
-    V2 { blocker: Vec<Vec2> },
+    V2 {
+        /// Blocker-search taps, in the unit disk.
+        blocker: Vec<Vec2>,
+    },
 }
 
 /// A frame's method and parameters.
@@ -75,7 +78,9 @@ pub struct Setup {
     pub bias_constant: f32,
     /// Slope-scaled bias, see the module docs (`≥ 0`).
     pub bias_slope: f32,
+    /// The filter kernel over a layer's `n × n` region.
     pub kernel: FilterKernel,
+    /// Which method, with its blocker-search taps for `V2`.
     pub variant: Variant,
 }
 
@@ -110,12 +115,20 @@ impl std::ops::AddAssign for SsmmCounts {
 /// One task: `samples` of one face (relative to the light centre, plus `shift` to the map's light
 /// point, which is the centre here), their visibility written to `out`.
 pub struct SsmmTask<'a> {
+    /// The face's depth map.
     pub map: &'a FaceMap,
+    /// The face's shadow mip-map chain.
     pub chain: &'a MipChain,
+    /// The frame's receivers (a sample's normal is its pixel's).
     pub receivers: &'a [Option<Receiver>],
+    /// `light centre − map origin`, world units: added to a sample's `q` for its position relative
+    /// to the map's light point (zero here).
     pub shift: Vec3,
+    /// The samples to look up, all of this face.
     pub samples: &'a [SampleIn],
+    /// The frame's method and parameters.
     pub setup: &'a Setup,
+    /// Visibility per sample of `samples`.
     pub out: &'a mut [f32],
 }
 
