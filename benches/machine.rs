@@ -10,14 +10,14 @@
 //! `SISM_BENCH_SCENE=palm` picks another scene of `scenes/` (default japanese-maple),
 //! `SISM_BENCH_SIZE=1024x1024` another image size (default 800x600).
 
-use std::path::Path;
+mod common;
+
 use std::time::Instant;
 
 use sism::algorithms::{self, PreparedScene};
 use sism::exec::Exec;
 use sism::machine::{decode, simulate, simulate_decoded, sweep, MachineConfig};
 use sism::render::{render_prepared, RenderOptions};
-use sism::scene::Scene;
 
 /// As in the `sism` binary: mimalloc, with line-aligned blocks and no reuse within a counted frame.
 #[global_allocator]
@@ -55,18 +55,9 @@ fn main() {
         eprintln!("SISM_BENCH_SIZE must read WIDTHxHEIGHT (1..8192 each), got `{size}`");
         std::process::exit(2);
     };
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(format!("{name}.toml"));
-    let mut scene = match Scene::load(&path) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("skipping {name}: {e}");
-            return;
-        }
+    let Some(scene) = common::scene(&name, width, height) else {
+        return;
     };
-    scene.camera.width = width;
-    scene.camera.height = height;
     let prepared = PreparedScene::new(&scene);
     let algo = algorithms::find("sism").expect("registered");
     let params = algo.params(&[]).expect("defaults");

@@ -8,12 +8,11 @@
 //! samples and map rendering are shared) and of the whole frame, each as a ratio to the plain shadow
 //! map in the same scene, and the lookup phase simulated on larrabee-24 (one counted frame: exact).
 
-use std::path::Path;
+mod common;
 
 use sism::exec::Exec;
 use sism::machine::MachineConfig;
 use sism::render::{render, render_on_machine, RenderOptions};
-use sism::scene::Scene;
 
 /// A method: label, algorithm, parameters.
 type Method = (
@@ -50,18 +49,9 @@ fn main() {
         rayon::current_num_threads()
     );
     for name in ["stanford-bunny", "japanese-maple", "palm"] {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(format!("{name}.toml"));
-        let mut scene = match Scene::load(&path) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("skipping {name}: {e}");
-                continue;
-            }
+        let Some(scene) = common::scene(name, 1280, 720) else {
+            continue;
         };
-        scene.camera.width = 1280;
-        scene.camera.height = 720;
         let setups: Vec<_> = METHODS
             .iter()
             .map(|(label, algo, given)| {

@@ -12,7 +12,10 @@
 //! groups of 16 consecutive rays of one receiver that the beams use). Every tracer's answers are
 //! compared ray by ray with the CWBVH tracer's.
 
-use std::path::Path;
+mod common;
+
+use sism::scene::Scene;
+
 use std::time::Instant;
 
 use glam::Vec3;
@@ -20,7 +23,6 @@ use sism::algorithms::reference::{cast_primary_rays, DiskRays};
 use sism::bvh::beam::{Beam, BEAM_RAYS};
 use sism::bvh::SceneBvh;
 use sism::sampling::{Rng, Strata};
-use sism::scene::Scene;
 use sism_simd::{Kernel, Mask16, Simd};
 
 const SPP: u32 = 256;
@@ -105,18 +107,9 @@ fn main() {
         sism_simd::selected_backend().name()
     );
     for name in ["stanford-bunny", "japanese-maple", "palm"] {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(format!("{name}.toml"));
-        let mut scene = match Scene::load(&path) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("skipping {name}: {e}");
-                continue;
-            }
+        let Some(scene) = common::scene(name, WIDTH, HEIGHT) else {
+            continue;
         };
-        scene.camera.width = WIDTH;
-        scene.camera.height = HEIGHT;
         let t = Instant::now();
         let bvh = SceneBvh::build(&scene);
         let build_ms = t.elapsed().as_secs_f64() * 1e3;

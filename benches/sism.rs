@@ -5,14 +5,14 @@
 //! once, outside the timing, as it would be across frames); the per-phase medians over the measured
 //! frames are printed from the frame's own phase timers.
 
-use std::path::Path;
+mod common;
+
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use sism::algorithms::sism::{render_scene, Composition, SismOptions};
 use sism::exec::{Exec, PhaseTime};
 use sism::scene::topology::SceneTopology;
-use sism::scene::Scene;
 
 fn median(mut v: Vec<Duration>) -> f64 {
     v.sort();
@@ -20,19 +20,9 @@ fn median(mut v: Vec<Duration>) -> f64 {
 }
 
 fn bench_scene(c: &mut Criterion, name: &str, composition: Composition) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(format!("{name}.toml"));
-
-    let mut scene = match Scene::load(&path) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("skipping {name}: {e}");
-            return;
-        }
+    let Some(scene) = common::scene(name, 1600, 1200) else {
+        return;
     };
-    scene.camera.width = 1600;
-    scene.camera.height = 1200;
     let topo = SceneTopology::build(&scene);
     let options = SismOptions {
         composition,

@@ -8,12 +8,11 @@
 //! n = 2, the texels read per receiver, and `(n + 1)² / 9`, the growth of one layer's region; and the
 //! simulated lookup phase on larrabee-24 (one counted frame).
 
-use std::path::Path;
+mod common;
 
 use sism::exec::Exec;
 use sism::machine::MachineConfig;
 use sism::render::{render, render_on_machine, RenderOptions};
-use sism::scene::Scene;
 
 const NS: [u32; 5] = [2, 3, 4, 6, 9];
 
@@ -39,18 +38,9 @@ fn main() {
         progress: false,
     };
     for name in ["stanford-bunny", "japanese-maple", "palm"] {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(format!("{name}.toml"));
-        let mut scene = match Scene::load(&path) {
-            Ok(s) => s,
-            Err(e) => {
-                eprintln!("skipping {name}: {e}");
-                continue;
-            }
+        let Some(scene) = common::scene(name, 800, 600) else {
+            continue;
         };
-        scene.camera.width = 800;
-        scene.camera.height = 600;
         for algo in ["ssmm", "ssmm-v2"] {
             let a = sism::algorithms::find(algo).unwrap();
             let setups: Vec<_> = NS
