@@ -1,6 +1,6 @@
 //! `sism study --backend slurm`: the study directory, its job array on a real Slurm, `study run`,
 //! `study collect` (missing, foreign and corrupt results, resubmission) and the errors of bad study
-//! directories. The tests that submit need `sbatch` (`.ci/slurm-up.sh` starts a single-node Slurm):
+//! directories. The tests that submit need a Slurm that answers (`.ci/slurm-up.sh` starts a single-node one):
 //! without it they fail under `CI=true` and report themselves skipped elsewhere.
 
 use std::path::{Path, PathBuf};
@@ -50,19 +50,20 @@ fn read(path: PathBuf) -> Vec<u8> {
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// Whether a Slurm client is here. Without one: under `CI=true` a failure, else a skip (false).
+/// Whether a Slurm controller answers here (`sinfo` succeeds: a client is installed and its
+/// controller is up). Without one: under `CI=true` a failure, else a skip (false).
 fn slurm_available() -> bool {
-    let found = std::process::Command::new("sbatch")
-        .arg("--version")
+    let found = std::process::Command::new("sinfo")
+        .arg("--noheader")
         .output()
         .is_ok_and(|o| o.status.success());
     if found {
         return true;
     }
     if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!("CI=true but no Slurm (sbatch not found): .ci/slurm-up.sh should have started one");
+        panic!("CI=true but no Slurm answers (sinfo failed): .ci/slurm-up.sh should have started one");
     }
-    eprintln!("skipped: no Slurm (sbatch not found)");
+    eprintln!("skipped: no Slurm controller answers (sinfo failed; `bash .ci/slurm-up.sh` starts one)");
     false
 }
 
