@@ -21,7 +21,26 @@ struct State {
     enc: LineEncoder,
     record_lines: bool,
     done: Vec<TaskRecord>,
+    /// Depth (nominal cycles) every value produced before the current task is taken to have:
+    /// the largest depth produced so far when the task began. A task's chains start here.
+    base: u64,
+    /// Largest depth produced so far (by any task of this recorder).
+    top: u64,
+    /// Completion depths of the last [`WINDOW`] vector operations (a ring; `issued` mod
+    /// [`WINDOW`] is the oldest): an operation enters the window only when the one [`WINDOW`]
+    /// before it has completed.
+    window: Box<[u64; WINDOW]>,
+    /// Vector operations issued (indexes the window ring).
+    issued: usize,
 }
+
+/// The nominal out-of-order window, in vector operations: an operation cannot start before the
+/// one this many before it has completed (it must retire to make room). About half of a Zen 4 or
+/// Ice Lake reorder buffer (320 / 352 entries): the other half holds the scalar, mask and address
+/// instructions around the vector ones. With it a record's critical path is the time a core of
+/// unbounded issue width but this window would take: long independent chains overlap only as far
+/// as the window reaches (the instruction-window model of Sniper, Carlson et al. 2014).
+pub const WINDOW: usize = 192;
 
 impl Default for Recorder {
     fn default() -> Self {
@@ -43,6 +62,10 @@ impl Recorder {
                 enc: LineEncoder::default(),
                 record_lines,
                 done: Vec::new(),
+                base: 0,
+                top: 0,
+                window: Box::new([0; WINDOW]),
+                issued: 0,
             }),
         }
     }
@@ -71,7 +94,11 @@ impl Recorder {
 
     /// Counters of the task in progress.
     pub fn current(&self) -> Counters {
-        self.st.borrow().c
+        let st = self.st.borrow();
+        Counters {
+            critical_path: st.top - st.base,
+            ..st.c
+        }
     }
 
     /// Take the filed records, plus the one in progress if it recorded
@@ -92,6 +119,9 @@ impl Recorder {
 }
 
 fn take(st: &mut State) -> TaskRecord {
+    // The task's longest chain; the next task's chains start above every value made so far.
+    st.c.critical_path = st.top - st.base;
+    st.base = st.top;
     let r = TaskRecord {
         kind: st.kind,
         counters: core::mem::take(&mut st.c),
@@ -114,6 +144,109 @@ enum Class {
     CompressExpand,
     Atomic,
 }
+
+/// Nominal latencies (cycles from an operation to the first one that can use its result) of a
+/// generic out-of-order AVX-512 core (Agner Fog's tables for Zen 4 and Ice Lake, rounded), in which
+/// a record's [`Counters::critical_path`] is measured. A machine converts them to its own cycles
+/// with one factor (`latency_scale` of the machine model), fitted on a one-chain microbenchmark.
+pub mod latency {
+    /// Bitwise logic, integer add/sub/shift/min/max, blends and selects.
+    pub const SIMPLE: u64 = 1;
+    /// Float min/max/abs/negate.
+    pub const FLOAT_MINMAX: u64 = 2;
+    /// Compares and lane permutes.
+    pub const COMPARE_PERMUTE: u64 = 3;
+    /// Lane extraction to a scalar register.
+    pub const EXTRACT: u64 = 3;
+    /// Float add, subtract, multiply, fused multiply-add, rounding and conversions.
+    pub const ARITH: u64 = 4;
+    /// Register compress and expand.
+    pub const COMPRESS: u64 = 4;
+    /// Fast reciprocal (square root) approximations with their Newton step.
+    pub const RCP_FAST: u64 = 9;
+    /// 32-bit integer multiply.
+    pub const MUL_I: u64 = 10;
+    /// Conflict detection.
+    pub const CONFLICT: u64 = 12;
+    /// Reductions (a tree of four shuffle-and-combine steps).
+    pub const REDUCE: u64 = 12;
+    /// Correctly rounded divide and reciprocal.
+    pub const DIV: u64 = 14;
+    /// Correctly rounded square root and reciprocal square root (sqrt then divide).
+    pub const SQRT: u64 = 16;
+    /// A vector load that hits L1 (misses are the cache model's).
+    pub const LOAD: u64 = 5;
+    /// Memory-form expand.
+    pub const EXPAND_LOAD: u64 = 8;
+    /// Gathers and vector fetch-adds (L1 hits).
+    pub const GATHER: u64 = 20;
+}
+
+/// A vector under the counting context: the wrapped backend's value and the depth of the
+/// dependency chain that produced it, in nominal cycles ([`latency`]). A result is as deep as its
+/// deepest input plus its own latency; the recorder keeps, per task, the deepest result: the
+/// task's critical path. Masks and scalars carry no depth (a chain through a mask or through
+/// `extract` restarts at the task's base).
+#[derive(Clone, Copy, Debug)]
+pub struct Tracked<T> {
+    value: T,
+    depth: u64,
+}
+
+/// An argument or result of a forwarded method: a [`Tracked`] vector, or a plain value.
+trait Operand: Copy {
+    type Raw;
+    fn raw(self) -> Self::Raw;
+    fn depth(&self) -> u64;
+    fn wrap(raw: Self::Raw, depth: u64) -> Self;
+}
+
+impl<T: Copy> Operand for Tracked<T> {
+    type Raw = T;
+    #[inline(always)]
+    fn raw(self) -> T {
+        self.value
+    }
+    #[inline(always)]
+    fn depth(&self) -> u64 {
+        self.depth
+    }
+    #[inline(always)]
+    fn wrap(value: T, depth: u64) -> Self {
+        Tracked { value, depth }
+    }
+}
+
+macro_rules! plain_operand {
+    ($($t:ty),*) => { $(
+        impl Operand for $t {
+            type Raw = $t;
+            #[inline(always)]
+            fn raw(self) -> $t {
+                self
+            }
+            #[inline(always)]
+            fn depth(&self) -> u64 {
+                0
+            }
+            #[inline(always)]
+            fn wrap(raw: $t, _: u64) -> $t {
+                raw
+            }
+        }
+    )* };
+}
+plain_operand!(
+    Mask16,
+    f32,
+    i32,
+    u32,
+    usize,
+    bool,
+    Option<u32>,
+    [f32; 16],
+    [i32; 16]
+);
 
 #[inline(always)]
 fn line_of(addr: usize) -> u64 {
@@ -164,8 +297,10 @@ impl<'r, B: Simd> Counting<'r, B> {
         self.rec.finish_task()
     }
 
+    /// Counts one operation of `class` on `lanes` lanes whose deepest input is `inputs` deep and
+    /// whose result is `latency` later; returns the result's depth.
     #[inline(always)]
-    fn op(self, class: Class, lanes: u32, masked: bool) {
+    fn op(self, class: Class, lanes: u32, masked: bool, inputs: u64, latency: u64) -> u64 {
         self.rec.with(|st| {
             let c = &mut st.c;
             match class {
@@ -182,6 +317,12 @@ impl<'r, B: Simd> Counting<'r, B> {
             c.vector_ops += 1;
             c.active_lanes += lanes as u64;
             c.masked_ops += masked as u64;
+            let slot = st.issued % WINDOW;
+            let depth = inputs.max(st.base).max(st.window[slot]) + latency;
+            st.window[slot] = depth;
+            st.issued += 1;
+            st.top = st.top.max(depth);
+            depth
         })
     }
     #[inline(always)]
@@ -189,11 +330,12 @@ impl<'r, B: Simd> Counting<'r, B> {
         self.rec.with(|st| st.c.mask += 1)
     }
     #[inline(always)]
-    fn reduce(self) {
+    fn reduce(self, input: u64) {
         self.rec.with(|st| {
             st.c.valu += 4;
             st.c.vector_ops += 4;
             st.c.active_lanes += 64;
+            st.top = st.top.max(input.max(st.base) + latency::REDUCE);
         })
     }
 
@@ -256,21 +398,23 @@ impl<'r, B: Simd> Counting<'r, B> {
     }
 }
 
+// The forwarding macros unwrap every argument ([`Operand::raw`]), forward, and wrap the result
+// with its depth: the deepest argument's plus the operation's latency.
 macro_rules! fwd {
-    ($class:ident; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+    ($class:ident, $lat:expr; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self $(, $arg: $ty)*) -> $ret {
-            self.op(Class::$class, 16, false);
-            self.inner.$name($($arg),*)
+            let d = self.op(Class::$class, 16, false, 0 $(.max(Operand::depth(&$arg)))*, $lat);
+            <$ret as Operand>::wrap(self.inner.$name($(Operand::raw($arg)),*), d)
         }
     )* };
 }
 macro_rules! fwd_masked {
-    ($class:ident; $( fn $name:ident(self, $src:ident : $sty:ty, $m:ident : Mask16 $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+    ($class:ident, $lat:expr; $( fn $name:ident(self, $src:ident : $sty:ty, $m:ident : Mask16 $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self, $src: $sty, $m: Mask16 $(, $arg: $ty)*) -> $ret {
-            self.op(Class::$class, $m.count(), true);
-            self.inner.$name($src, $m $(, $arg)*)
+            let d = self.op(Class::$class, $m.count(), true, $src.depth $(.max(Operand::depth(&$arg)))*, $lat);
+            <$ret as Operand>::wrap(self.inner.$name($src.value, $m $(, Operand::raw($arg))*), d)
         }
     )* };
 }
@@ -283,11 +427,13 @@ macro_rules! fwd_mask {
         }
     )* };
 }
+/// Free operations (broadcasts, bit casts): no count, the depth passes through.
 macro_rules! fwd_free {
     ($( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self $(, $arg: $ty)*) -> $ret {
-            self.inner.$name($($arg),*)
+            let d = 0 $(.max(Operand::depth(&$arg)))*;
+            <$ret as Operand>::wrap(self.inner.$name($(Operand::raw($arg)),*), d)
         }
     )* };
 }
@@ -295,15 +441,15 @@ macro_rules! fwd_reduce {
     ($( fn $name:ident(self, v: $ty:ty) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self, v: $ty) -> $ret {
-            self.reduce();
-            self.inner.$name(v)
+            self.reduce(v.depth);
+            self.inner.$name(v.value)
         }
     )* };
 }
 
 impl<B: Simd> Simd for Counting<'_, B> {
-    type F32 = B::F32;
-    type I32 = B::I32;
+    type F32 = Tracked<B::F32>;
+    type I32 = Tracked<B::I32>;
 
     #[inline(always)]
     fn kind(self) -> BackendKind {
@@ -318,30 +464,39 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn cast_i_f(self, a: Self::I32) -> Self::F32;
     }
 
-    fwd! { Load;
+    fwd! { Load, latency::LOAD;
         fn from_array_f(self, a: [f32; 16]) -> Self::F32;
         fn from_array_i(self, a: [i32; 16]) -> Self::I32;
     }
-    fwd! { Store;
+    fwd! { Store, 0;
         fn to_array_f(self, v: Self::F32) -> [f32; 16];
         fn to_array_i(self, v: Self::I32) -> [i32; 16];
     }
 
-    fwd! { Valu;
+    fwd! { Valu, latency::EXTRACT;
         fn extract_f(self, v: Self::F32, lane: usize) -> f32;
         fn extract_i(self, v: Self::I32, lane: usize) -> i32;
+    }
+    fwd! { Valu, latency::ARITH;
         fn add_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
         fn sub_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
         fn mul_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
-        fn min_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
-        fn max_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
-        fn abs_f(self, a: Self::F32) -> Self::F32;
-        fn neg_f(self, a: Self::F32) -> Self::F32;
         fn floor_f(self, a: Self::F32) -> Self::F32;
         fn ceil_f(self, a: Self::F32) -> Self::F32;
         fn trunc_f(self, a: Self::F32) -> Self::F32;
         fn round_f(self, a: Self::F32) -> Self::F32;
-        fn select_f(self, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn cvt_i_f(self, a: Self::I32) -> Self::F32;
+        fn cvt_u_f(self, a: Self::I32) -> Self::F32;
+        fn cvtt_f_i(self, a: Self::F32) -> Self::I32;
+        fn cvtr_f_i(self, a: Self::F32) -> Self::I32;
+    }
+    fwd! { Valu, latency::FLOAT_MINMAX;
+        fn min_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn max_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn abs_f(self, a: Self::F32) -> Self::F32;
+        fn neg_f(self, a: Self::F32) -> Self::F32;
+    }
+    fwd! { Valu, latency::COMPARE_PERMUTE;
         fn cmp_eq_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_ne_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_lt_f(self, a: Self::F32, b: Self::F32) -> Mask16;
@@ -349,10 +504,25 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn cmp_gt_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_ge_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_unord_f(self, a: Self::F32, b: Self::F32) -> Mask16;
+        fn cmp_eq_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ne_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_lt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_le_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_gt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ge_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_lt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_le_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_gt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn cmp_ge_u(self, a: Self::I32, b: Self::I32) -> Mask16;
+        fn test_i(self, a: Self::I32, b: Self::I32) -> Mask16;
         fn permute_f(self, v: Self::F32, idx: Self::I32) -> Self::F32;
+        fn permute_i(self, v: Self::I32, idx: Self::I32) -> Self::I32;
+    }
+    fwd! { Valu, latency::SIMPLE;
+        fn select_f(self, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+        fn select_i(self, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
         fn add_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn sub_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
-        fn mul_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn and_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn or_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn xor_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
@@ -368,55 +538,53 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn min_u(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn max_u(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn abs_i(self, a: Self::I32) -> Self::I32;
-        fn select_i(self, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
-        fn cmp_eq_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_ne_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_lt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_le_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_gt_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_ge_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_lt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_le_u(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_gt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn cmp_ge_u(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn test_i(self, a: Self::I32, b: Self::I32) -> Mask16;
-        fn permute_i(self, v: Self::I32, idx: Self::I32) -> Self::I32;
+    }
+    fwd! { Valu, latency::MUL_I;
+        fn mul_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
+    }
+    fwd! { Valu, latency::CONFLICT;
         fn conflict_i(self, v: Self::I32) -> Self::I32;
-        fn cvt_i_f(self, a: Self::I32) -> Self::F32;
-        fn cvt_u_f(self, a: Self::I32) -> Self::F32;
-        fn cvtt_f_i(self, a: Self::F32) -> Self::I32;
-        fn cvtr_f_i(self, a: Self::F32) -> Self::I32;
     }
 
-    fwd! { Fma;
+    fwd! { Fma, latency::ARITH;
         fn fmadd(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
         fn fmsub(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
         fn fnmadd(self, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
     }
 
-    fwd! { Trans;
+    fwd! { Trans, latency::DIV;
         fn div_f(self, a: Self::F32, b: Self::F32) -> Self::F32;
-        fn sqrt_f(self, a: Self::F32) -> Self::F32;
         fn rcp_f(self, a: Self::F32) -> Self::F32;
+    }
+    fwd! { Trans, latency::SQRT;
+        fn sqrt_f(self, a: Self::F32) -> Self::F32;
         fn rsqrt_f(self, a: Self::F32) -> Self::F32;
+    }
+    fwd! { Trans, latency::RCP_FAST;
         fn rcp_fast_f(self, a: Self::F32) -> Self::F32;
         fn rsqrt_fast_f(self, a: Self::F32) -> Self::F32;
     }
 
-    fwd_masked! { Valu;
+    fwd_masked! { Valu, latency::ARITH;
         fn mask_add_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
         fn mask_sub_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
         fn mask_mul_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+    }
+    fwd_masked! { Valu, latency::FLOAT_MINMAX;
         fn mask_min_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
         fn mask_max_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+    }
+    fwd_masked! { Valu, latency::SIMPLE;
         fn mask_add_i(self, src: Self::I32, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
         fn mask_sub_i(self, src: Self::I32, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
     }
-    fwd_masked! { Fma;
+    fwd_masked! { Fma, latency::ARITH;
         fn mask_fmadd(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32, c: Self::F32) -> Self::F32;
     }
-    fwd_masked! { Trans;
+    fwd_masked! { Trans, latency::DIV;
         fn mask_div_f(self, src: Self::F32, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
+    }
+    fwd_masked! { Trans, latency::SQRT;
         fn mask_sqrt_f(self, src: Self::F32, m: Mask16, a: Self::F32) -> Self::F32;
     }
 
@@ -435,23 +603,23 @@ impl<B: Simd> Simd for Counting<'_, B> {
 
     #[inline(always)]
     fn compress_f(self, m: Mask16, v: Self::F32) -> Self::F32 {
-        self.op(Class::CompressExpand, m.count(), true);
-        self.inner.compress_f(m, v)
+        let d = self.op(Class::CompressExpand, m.count(), true, v.depth, latency::COMPRESS);
+        Tracked::wrap(self.inner.compress_f(m, v.value), d)
     }
     #[inline(always)]
     fn expand_f(self, m: Mask16, v: Self::F32) -> Self::F32 {
-        self.op(Class::CompressExpand, m.count(), true);
-        self.inner.expand_f(m, v)
+        let d = self.op(Class::CompressExpand, m.count(), true, v.depth, latency::COMPRESS);
+        Tracked::wrap(self.inner.expand_f(m, v.value), d)
     }
     #[inline(always)]
     fn compress_i(self, m: Mask16, v: Self::I32) -> Self::I32 {
-        self.op(Class::CompressExpand, m.count(), true);
-        self.inner.compress_i(m, v)
+        let d = self.op(Class::CompressExpand, m.count(), true, v.depth, latency::COMPRESS);
+        Tracked::wrap(self.inner.compress_i(m, v.value), d)
     }
     #[inline(always)]
     fn expand_i(self, m: Mask16, v: Self::I32) -> Self::I32 {
-        self.op(Class::CompressExpand, m.count(), true);
-        self.inner.expand_i(m, v)
+        let d = self.op(Class::CompressExpand, m.count(), true, v.depth, latency::COMPRESS);
+        Tracked::wrap(self.inner.expand_i(m, v.value), d)
     }
 
     fwd_mask! {
@@ -472,119 +640,119 @@ impl<B: Simd> Simd for Counting<'_, B> {
     #[inline(always)]
     fn load_f(self, mem: &[f32]) -> Self::F32 {
         let r = self.inner.load_f(mem);
-        self.op(Class::Load, 16, false);
+        let d = self.op(Class::Load, 16, false, 0, latency::LOAD);
         self.contiguous(mem.as_ptr() as usize, 0, 15, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn load_i(self, mem: &[i32]) -> Self::I32 {
         let r = self.inner.load_i(mem);
-        self.op(Class::Load, 16, false);
+        let d = self.op(Class::Load, 16, false, 0, latency::LOAD);
         self.contiguous(mem.as_ptr() as usize, 0, 15, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn load_aligned_f(self, mem: &[f32]) -> Self::F32 {
         let r = self.inner.load_aligned_f(mem);
-        self.op(Class::Load, 16, false);
+        let d = self.op(Class::Load, 16, false, 0, latency::LOAD);
         self.contiguous(mem.as_ptr() as usize, 0, 15, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn load_aligned_i(self, mem: &[i32]) -> Self::I32 {
         let r = self.inner.load_aligned_i(mem);
-        self.op(Class::Load, 16, false);
+        let d = self.op(Class::Load, 16, false, 0, latency::LOAD);
         self.contiguous(mem.as_ptr() as usize, 0, 15, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn store_f(self, mem: &mut [f32], v: Self::F32) {
-        self.inner.store_f(mem, v);
-        self.op(Class::Store, 16, false);
+        self.inner.store_f(mem, v.value);
+        self.op(Class::Store, 16, false, 0, 0);
         self.contiguous(mem.as_ptr() as usize, 0, 15, true);
     }
     #[inline(always)]
     fn store_i(self, mem: &mut [i32], v: Self::I32) {
-        self.inner.store_i(mem, v);
-        self.op(Class::Store, 16, false);
+        self.inner.store_i(mem, v.value);
+        self.op(Class::Store, 16, false, 0, 0);
         self.contiguous(mem.as_ptr() as usize, 0, 15, true);
     }
     #[inline(always)]
     fn store_aligned_f(self, mem: &mut [f32], v: Self::F32) {
-        self.inner.store_aligned_f(mem, v);
-        self.op(Class::Store, 16, false);
+        self.inner.store_aligned_f(mem, v.value);
+        self.op(Class::Store, 16, false, 0, 0);
         self.contiguous(mem.as_ptr() as usize, 0, 15, true);
     }
     #[inline(always)]
     fn store_aligned_i(self, mem: &mut [i32], v: Self::I32) {
-        self.inner.store_aligned_i(mem, v);
-        self.op(Class::Store, 16, false);
+        self.inner.store_aligned_i(mem, v.value);
+        self.op(Class::Store, 16, false, 0, 0);
         self.contiguous(mem.as_ptr() as usize, 0, 15, true);
     }
     #[inline(always)]
     fn mask_load_f(self, src: Self::F32, m: Mask16, mem: &[f32]) -> Self::F32 {
-        let r = self.inner.mask_load_f(src, m, mem);
-        self.op(Class::Load, m.count(), true);
+        let r = self.inner.mask_load_f(src.value, m, mem);
+        let d = self.op(Class::Load, m.count(), true, src.depth, latency::LOAD);
         self.masked_contiguous(mem.as_ptr() as usize, m, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn mask_load_i(self, src: Self::I32, m: Mask16, mem: &[i32]) -> Self::I32 {
-        let r = self.inner.mask_load_i(src, m, mem);
-        self.op(Class::Load, m.count(), true);
+        let r = self.inner.mask_load_i(src.value, m, mem);
+        let d = self.op(Class::Load, m.count(), true, src.depth, latency::LOAD);
         self.masked_contiguous(mem.as_ptr() as usize, m, false);
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn mask_store_f(self, mem: &mut [f32], m: Mask16, v: Self::F32) {
-        self.inner.mask_store_f(mem, m, v);
-        self.op(Class::Store, m.count(), true);
+        self.inner.mask_store_f(mem, m, v.value);
+        self.op(Class::Store, m.count(), true, 0, 0);
         self.masked_contiguous(mem.as_ptr() as usize, m, true);
     }
     #[inline(always)]
     fn mask_store_i(self, mem: &mut [i32], m: Mask16, v: Self::I32) {
-        self.inner.mask_store_i(mem, m, v);
-        self.op(Class::Store, m.count(), true);
+        self.inner.mask_store_i(mem, m, v.value);
+        self.op(Class::Store, m.count(), true, 0, 0);
         self.masked_contiguous(mem.as_ptr() as usize, m, true);
     }
     #[inline(always)]
     fn gather_f(self, mem: &[f32], idx: Self::I32) -> Self::F32 {
-        let r = self.inner.gather_f(mem, idx);
-        self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false);
-        r
+        let r = self.inner.gather_f(mem, idx.value);
+        let d = self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false, 0);
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn gather_i(self, mem: &[i32], idx: Self::I32) -> Self::I32 {
-        let r = self.inner.gather_i(mem, idx);
-        self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false);
-        r
+        let r = self.inner.gather_i(mem, idx.value);
+        let d = self.after_gather(mem.as_ptr() as usize, Mask16::ALL, idx, false, 0);
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn mask_gather_f(self, src: Self::F32, m: Mask16, mem: &[f32], idx: Self::I32) -> Self::F32 {
-        let r = self.inner.mask_gather_f(src, m, mem, idx);
-        self.after_gather(mem.as_ptr() as usize, m, idx, true);
-        r
+        let r = self.inner.mask_gather_f(src.value, m, mem, idx.value);
+        let d = self.after_gather(mem.as_ptr() as usize, m, idx, true, src.depth);
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn mask_gather_i(self, src: Self::I32, m: Mask16, mem: &[i32], idx: Self::I32) -> Self::I32 {
-        let r = self.inner.mask_gather_i(src, m, mem, idx);
-        self.after_gather(mem.as_ptr() as usize, m, idx, true);
-        r
+        let r = self.inner.mask_gather_i(src.value, m, mem, idx.value);
+        let d = self.after_gather(mem.as_ptr() as usize, m, idx, true, src.depth);
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn mask_scatter_f(self, mem: &mut [f32], m: Mask16, idx: Self::I32, v: Self::F32) {
-        self.inner.mask_scatter_f(mem, m, idx, v);
-        self.after_scatter(mem.as_ptr() as usize, m, idx);
+        self.inner.mask_scatter_f(mem, m, idx.value, v.value);
+        self.after_scatter(mem.as_ptr() as usize, m, idx.value);
     }
     #[inline(always)]
     fn mask_scatter_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, v: Self::I32) {
-        self.inner.mask_scatter_i(mem, m, idx, v);
-        self.after_scatter(mem.as_ptr() as usize, m, idx);
+        self.inner.mask_scatter_i(mem, m, idx.value, v.value);
+        self.after_scatter(mem.as_ptr() as usize, m, idx.value);
     }
     #[inline(always)]
     fn compress_store_f(self, mem: &mut [f32], m: Mask16, v: Self::F32) -> usize {
-        let n = self.inner.compress_store_f(mem, m, v);
-        self.op(Class::CompressExpand, m.count(), true);
+        let n = self.inner.compress_store_f(mem, m, v.value);
+        self.op(Class::CompressExpand, m.count(), true, 0, 0);
         if n > 0 {
             self.contiguous(mem.as_ptr() as usize, 0, n - 1, true);
         }
@@ -592,8 +760,8 @@ impl<B: Simd> Simd for Counting<'_, B> {
     }
     #[inline(always)]
     fn compress_store_i(self, mem: &mut [i32], m: Mask16, v: Self::I32) -> usize {
-        let n = self.inner.compress_store_i(mem, m, v);
-        self.op(Class::CompressExpand, m.count(), true);
+        let n = self.inner.compress_store_i(mem, m, v.value);
+        self.op(Class::CompressExpand, m.count(), true, 0, 0);
         if n > 0 {
             self.contiguous(mem.as_ptr() as usize, 0, n - 1, true);
         }
@@ -601,35 +769,47 @@ impl<B: Simd> Simd for Counting<'_, B> {
     }
     #[inline(always)]
     fn expand_load_f(self, src: Self::F32, m: Mask16, mem: &[f32]) -> Self::F32 {
-        let r = self.inner.expand_load_f(src, m, mem);
-        self.op(Class::CompressExpand, m.count(), true);
+        let r = self.inner.expand_load_f(src.value, m, mem);
+        let d = self.op(
+            Class::CompressExpand,
+            m.count(),
+            true,
+            src.depth,
+            latency::EXPAND_LOAD,
+        );
         let n = m.count() as usize;
         if n > 0 {
             self.contiguous(mem.as_ptr() as usize, 0, n - 1, false);
         }
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn expand_load_i(self, src: Self::I32, m: Mask16, mem: &[i32]) -> Self::I32 {
-        let r = self.inner.expand_load_i(src, m, mem);
-        self.op(Class::CompressExpand, m.count(), true);
+        let r = self.inner.expand_load_i(src.value, m, mem);
+        let d = self.op(
+            Class::CompressExpand,
+            m.count(),
+            true,
+            src.depth,
+            latency::EXPAND_LOAD,
+        );
         let n = m.count() as usize;
         if n > 0 {
             self.contiguous(mem.as_ptr() as usize, 0, n - 1, false);
         }
-        r
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32 {
-        let r = self.inner.fetch_add_i(mem, m, idx, val);
-        self.after_atomic(mem.as_ptr() as usize, m, idx);
-        r
+        let r = self.inner.fetch_add_i(mem, m, idx.value, val.value);
+        let d = self.after_atomic(mem.as_ptr() as usize, m, idx, val.depth);
+        Tracked::wrap(r, d)
     }
     #[inline(always)]
     fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: Self::I32, val: Self::I32) -> Self::I32 {
-        let r = self.inner.atomic_fetch_add_i(mem, m, idx, val);
-        self.after_atomic(mem.as_ptr() as usize, m, idx);
-        r
+        let r = self.inner.atomic_fetch_add_i(mem, m, idx.value, val.value);
+        let d = self.after_atomic(mem.as_ptr() as usize, m, idx, val.depth);
+        Tracked::wrap(r, d)
     }
 
     // ---------------- hooks ----------------
@@ -663,21 +843,41 @@ impl<B: Simd> Simd for Counting<'_, B> {
 }
 
 impl<B: Simd> Counting<'_, B> {
-    fn after_gather(self, base: usize, m: Mask16, idx: B::I32, masked: bool) {
-        self.op(Class::Gather, m.count(), masked);
-        let idx = self.inner.to_array_i(idx);
-        let d = self.indexed(base, m, &idx, false);
-        self.rec.with(|st| st.c.gather_lines += d);
+    /// Counts a gather whose other input (the merge source) is `src_depth` deep; returns the
+    /// result's depth.
+    #[inline(always)]
+    fn after_gather(self, base: usize, m: Mask16, idx: Tracked<B::I32>, masked: bool, src_depth: u64) -> u64 {
+        let d = self.op(
+            Class::Gather,
+            m.count(),
+            masked,
+            idx.depth.max(src_depth),
+            latency::GATHER,
+        );
+        let idx = self.inner.to_array_i(idx.value);
+        let lines = self.indexed(base, m, &idx, false);
+        self.rec.with(|st| st.c.gather_lines += lines);
+        d
     }
+    #[inline(always)]
     fn after_scatter(self, base: usize, m: Mask16, idx: B::I32) {
-        self.op(Class::Scatter, m.count(), true);
+        self.op(Class::Scatter, m.count(), true, 0, 0);
         let idx = self.inner.to_array_i(idx);
         let d = self.indexed(base, m, &idx, true);
         self.rec.with(|st| st.c.scatter_lines += d);
     }
-    fn after_atomic(self, base: usize, m: Mask16, idx: B::I32) {
-        self.op(Class::Atomic, m.count(), true);
-        let idx = self.inner.to_array_i(idx);
+    /// Counts a vector fetch-add whose added values are `val_depth` deep; returns the depth of the
+    /// old values it returns.
+    #[inline(always)]
+    fn after_atomic(self, base: usize, m: Mask16, idx: Tracked<B::I32>, val_depth: u64) -> u64 {
+        let depth = self.op(
+            Class::Atomic,
+            m.count(),
+            true,
+            idx.depth.max(val_depth),
+            latency::GATHER,
+        );
+        let idx = self.inner.to_array_i(idx.value);
         let d = self.indexed(base, m, &idx, true);
         let mut conflicts = 0;
         for i in m.iter() {
@@ -689,5 +889,6 @@ impl<B: Simd> Counting<'_, B> {
             st.c.atomic_lines += d;
             st.c.atomic_conflicts += conflicts;
         });
+        depth
     }
 }

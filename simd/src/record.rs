@@ -92,6 +92,10 @@ counters! {
     /// Active fetch-add lanes whose address repeats an earlier active lane
     /// of the same instruction (what conflict detection had to combine).
     atomic_conflicts,
+    /// The task's critical path: its longest chain of dependent vector operations, in nominal
+    /// cycles ([`crate::latency`]), recorded as the task executes (each result is as
+    /// deep as its deepest input plus its latency). Summed over tasks when records are merged.
+    critical_path,
 }
 
 impl Counters {
@@ -148,7 +152,8 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 }
 
 const MAGIC: u8 = 0x5A;
-const VERSION: u8 = 1;
+// Version 2: `critical_path` counter.
+const VERSION: u8 = 2;
 
 impl TaskRecord {
     /// Compact binary form: magic, version, then varints (kind, every

@@ -32,7 +32,7 @@ pub struct Args {
     #[arg(long, default_value = "1,all")]
     threads: String,
     /// Native frames timed per configuration (the median is used), after one warm-up frame (1..=100).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 5)]
     frames: usize,
     /// Error counted as a hit in the summary (0.25 = ±25%).
     #[arg(long, default_value_t = 0.25)]
@@ -119,12 +119,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     let md = format!(
-        "Model `{}` against the host ({} GHz), {}×{} where given; predicted / measured host ms per major \
-         phase and per frame (the frame: the phases the model times).\n\n{}",
+        "Model `{}` against the host ({} GHz), {}×{} where given, backend {}; predicted / measured host ms \
+         per major phase and per frame (a phase: its steps' work; the frame: the phases the model times).\n\n{}",
         model.name,
         model.clock_ghz,
         a.width.map(|w| w.to_string()).unwrap_or_else(|| "scene".into()),
         a.height.map(|h| h.to_string()).unwrap_or_else(|| "scene".into()),
+        sism_simd::selected_backend().name(),
         validate::markdown(&rows, a.tolerance)
     );
     write_file(&out.join("validate.csv"), &validate::csv(&rows))?;

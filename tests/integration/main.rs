@@ -9,6 +9,7 @@ mod gaussian;
 mod golden;
 mod hardening;
 mod host_model;
+mod inlining;
 mod multi_sample;
 mod obj_loading;
 mod rbsm;

@@ -115,14 +115,15 @@ impl Beam {
     fn cone<S: Simd>(&self, s: S) -> (Vec3, Option<(f32, f32)>, f32) {
         let vectors = self.len.div_ceil(16);
         let zero = s.splat_f(0.0);
-        let mask = |v: usize| s.mask_first_n(self.len - 16 * v);
-        let load = |a: &[[f32; 16]; VECTORS], v: usize| s.mask_load_f(zero, mask(v), &a[v]);
+        // No closures around vector operations here: a closure is compiled without the kernel's
+        // target features and its vector operations would become calls.
         let (mut sx, mut sy, mut sz, mut longest) = (zero, zero, zero, zero);
         for v in 0..vectors {
-            sx = s.add_f(sx, load(&self.dx, v));
-            sy = s.add_f(sy, load(&self.dy, v));
-            sz = s.add_f(sz, load(&self.dz, v));
-            longest = s.max_f(longest, load(&self.t_max, v));
+            let m = s.mask_first_n(self.len - 16 * v);
+            sx = s.add_f(sx, s.mask_load_f(zero, m, &self.dx[v]));
+            sy = s.add_f(sy, s.mask_load_f(zero, m, &self.dy[v]));
+            sz = s.add_f(sz, s.mask_load_f(zero, m, &self.dz[v]));
+            longest = s.max_f(longest, s.mask_load_f(zero, m, &self.t_max[v]));
         }
         let first = Vec3::new(self.dx[0][0], self.dy[0][0], self.dz[0][0]);
         let sum = Vec3::new(s.reduce_add_f(sx), s.reduce_add_f(sy), s.reduce_add_f(sz));
@@ -133,8 +134,12 @@ impl Beam {
         let (ax, ay, az) = (s.splat_f(axis.x), s.splat_f(axis.y), s.splat_f(axis.z));
         let mut sin = zero;
         for v in 0..vectors {
-            let m = mask(v);
-            let (x, y, z) = (load(&self.dx, v), load(&self.dy, v), load(&self.dz, v));
+            let m = s.mask_first_n(self.len - 16 * v);
+            let (x, y, z) = (
+                s.mask_load_f(zero, m, &self.dx[v]),
+                s.mask_load_f(zero, m, &self.dy[v]),
+                s.mask_load_f(zero, m, &self.dz[v]),
+            );
             let along = s.add_f(s.add_f(s.mul_f(x, ax), s.mul_f(y, ay)), s.mul_f(z, az));
             if s.mask_any(s.mask_and(m, s.cmp_le_f(along, s.splat_f(1e-3)))) {
                 return (axis, None, longest);
@@ -241,23 +246,28 @@ impl BeamBvh {
         let (axis, cone, longest) = beam.cone(s);
         let o = beam.origin;
         let (dx, dy, dz, tm) = (
-            beam.dx.map(|a| s.from_array_f(a)),
-            beam.dy.map(|a| s.from_array_f(a)),
-            beam.dz.map(|a| s.from_array_f(a)),
-            beam.t_max.map(|a| s.from_array_f(a)),
+            registers(s, &beam.dx),
+            registers(s, &beam.dy),
+            registers(s, &beam.dz),
+            registers(s, &beam.t_max),
         );
         // Wide beams (a large or near light) also test each node's box against each vector's rays, and
         // carry down which vectors reached the node: the cone alone would let every ray meet every
         // triangle near any of them.
         let wide = cone.is_none_or(|(sin, _)| sin > WIDE_SIN);
-        let slabs = wide.then(|| {
-            let inv = |d: &[[f32; 16]; VECTORS]| {
-                d.map(|a| {
-                    s.from_array_f(a.map(|x| 1.0 / if x.abs() < 1e-30 { 1e-30f32.copysign(x) } else { x }))
-                })
-            };
-            (inv(&beam.dx), inv(&beam.dy), inv(&beam.dz))
-        });
+        let inv = |d: &[[f32; 16]; VECTORS]| {
+            d.map(|a| a.map(|x| 1.0 / if x.abs() < 1e-30 { 1e-30f32.copysign(x) } else { x }))
+        };
+        // `if`, not `bool::then`: vector operations stay out of closures (see `Beam::cone`).
+        let slabs = if wide {
+            Some((
+                registers(s, &inv(&beam.dx)),
+                registers(s, &inv(&beam.dy)),
+                registers(s, &inv(&beam.dz)),
+            ))
+        } else {
+            None
+        };
         let mut open_vectors = vectors;
         let all_vectors = ((1u32 << vectors) - 1) as u16;
         stack.clear();
@@ -396,4 +406,15 @@ fn dot_sv<S: Simd>(s: S, a: Vec3, x: S::F32, y: S::F32, z: S::F32) -> S::F32 {
         s.add_f(s.mul_f(s.splat_f(a.x), x), s.mul_f(s.splat_f(a.y), y)),
         s.mul_f(s.splat_f(a.z), z),
     )
+}
+
+/// The beam's `VECTORS` arrays of 16 lanes as registers (a loop, not `array::map`: see
+/// [`Beam::cone`]).
+#[inline(always)]
+fn registers<S: Simd>(s: S, a: &[[f32; 16]; VECTORS]) -> [S::F32; VECTORS] {
+    let mut r = [s.splat_f(0.0); VECTORS];
+    for (r, a) in r.iter_mut().zip(a) {
+        *r = s.from_array_f(*a);
+    }
+    r
 }

@@ -9,7 +9,8 @@
 //! repeated until the costs settle (Gauss–Seidel; each benchmark depends on one cost mostly).
 //!
 //! The fitted costs: `vector_cycles` (ALU/FMA stream on 8 independent chains: the throughput),
-//! `vector_latency_cycles` (the same operations on one chain: the latency), `load_store_cycles` (streaming loads from
+//! `latency_scale` (the same operations on one chain: cycles per nominal latency cycle of the
+//! recorded critical path), `load_store_cycles` (streaming loads from
 //! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains the kernel reports with
 //! `scalar_ops`), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
 //! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
@@ -43,7 +44,7 @@ pub const FIT_PARALLELISM: f64 = 16.0;
 pub enum Fits {
     /// `vector_cycles`, on 8 independent dependency chains (the throughput).
     Vector,
-    /// `vector_latency_cycles`, on one dependency chain.
+    /// `latency_scale`, on one dependency chain.
     VectorLatency,
     /// `load_store_cycles`, by streaming loads from L1.
     LoadStore,
@@ -67,6 +68,8 @@ pub enum Fits {
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
     Barrier,
+    /// `page_fault_cycles`, by first touches of freshly allocated memory.
+    PageFault,
     /// Not fitted: a check of the fitted model.
     Check,
 }
@@ -122,6 +125,11 @@ enum Kind {
     /// `tasks` empty tasks in one step.
     Tasks {
         tasks: usize,
+    },
+    /// One store into each 4 KiB page of a freshly allocated buffer of `bytes` bytes (allocation
+    /// and release timed with it: what a frame's fresh buffers cost).
+    FreshPages {
+        bytes: usize,
     },
 }
 
@@ -255,6 +263,12 @@ pub const BENCHES: &[Bench] = &[
         },
     },
     Bench {
+        name: "fresh-pages",
+        what: "one store per 4 KiB page of freshly allocated memory (page faults)",
+        fits: Fits::PageFault,
+        kind: Kind::FreshPages { bytes: 64 << 20 },
+    },
+    Bench {
         name: "tasks-1",
         what: "one empty task in a step (the join)",
         fits: Fits::Barrier,
@@ -375,22 +389,9 @@ fn gather_indices(n: usize, lines: u32, count: usize) -> Vec<i32> {
     out
 }
 
-impl Kind {
-    /// Independent chains the benchmark's vector ALU operations form (read off its kernel below).
-    fn chains(self) -> usize {
-        match self {
-            Kind::Alu { chains, .. } => chains,
-            // Four accumulators.
-            Kind::Copy { .. } | Kind::Stream { .. } => 4,
-            // One accumulator, or no ALU work to speak of.
-            _ => 1,
-        }
-    }
-}
-
 /// `CHAINS` independent dependency chains (1, 2, 4 or 8) through the same 8 operations per round:
-/// the host runs them at its throughput with 8 and at its latency with 1; the model, which knows no
-/// dependencies, charges both the same per operation.
+/// the host runs them at its throughput with 8 and at its latency with 1; the counted run records
+/// the critical path, 8 operations deep per round on one chain and one per round on 8.
 struct AluK<const CHAINS: usize> {
     iters: usize,
     seed: f32,
@@ -417,6 +418,23 @@ impl<const CHAINS: usize> Kernel for AluK<CHAINS> {
             sum = s.add_f(sum, *v);
         }
         s.reduce_add_f(sum)
+    }
+}
+
+/// One 16-lane store at the start of each 4 KiB page of `data`.
+struct FreshPagesK<'a> {
+    data: &'a mut [i32],
+}
+impl Kernel for FreshPagesK<'_> {
+    type Output = i32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> i32 {
+        let v = s.splat_i(1);
+        let pages = self.data.len() / 1024;
+        for p in 0..pages {
+            s.store_i(&mut self.data[p * 1024..p * 1024 + 16], v);
+        }
+        self.data[0]
     }
 }
 
@@ -720,6 +738,25 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             });
             (ns, tasks)
         }
+        Kind::FreshPages { bytes } => {
+            let n = (bytes / 4).max(1024);
+            let run = |r: Option<&Recorder>| {
+                // Zeroed memory straight from the allocator: its pages are touched first here.
+                let mut data = vec![0i32; n];
+                let k = FreshPagesK { data: &mut data };
+                match r {
+                    None => sism_simd::run_native(k),
+                    Some(r) => sism_simd::run_counting(r, k),
+                }
+            };
+            let ns = time(&mut || {
+                black_box(run(None));
+            });
+            let tasks = counted(&mut |r| {
+                run(Some(r));
+            });
+            (ns, tasks)
+        }
         Kind::Compress { count } => {
             let mut out = vec![0.0f32; 1024];
             let mut st = 7u64;
@@ -797,8 +834,6 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
 pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
     let mut one = m.clone();
     let is_step = matches!(x.bench.kind, Kind::Tasks { .. });
-    // A benchmark's dependency chains are known (the frames' are the config's assumption).
-    one.vector_chains = x.bench.kind.chains() as f64;
     if !is_step {
         one.cores = 1;
         one.barrier_cycles = 0;
@@ -859,7 +894,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         for x in measured {
             match x.bench.fits {
                 Fits::Vector => solve(&mut m, x, 0.01, 100.0, &|m, c| m.vector_cycles = c),
-                Fits::VectorLatency => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.vector_latency_cycles = c),
+                Fits::VectorLatency => solve(&mut m, x, 0.0, 100.0, &|m, c| m.latency_scale = c),
                 Fits::LoadStore => solve(&mut m, x, 0.01, 100.0, &|m, c| m.load_store_cycles = c),
                 Fits::Compress => solve(&mut m, x, 0.01, 1000.0, &|m, c| m.compress_cycles = c),
                 Fits::Scalar => solve(&mut m, x, 0.01, 100.0, &|m, c| m.scalar_cycles = c),
@@ -885,6 +920,9 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::TaskOverhead => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.task_overhead_cycles = c.round()
                 }),
+                Fits::PageFault => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
+                    m.page_fault_cycles = c.round()
+                }),
                 Fits::Check => {}
             }
         }
@@ -901,7 +939,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     }
     // Rounded for a readable file; each value stays within its documented range.
     m.vector_cycles = (m.vector_cycles * 1000.0).round().max(10.0) / 1000.0;
-    m.vector_latency_cycles = (m.vector_latency_cycles * 1000.0).round() / 1000.0;
+    m.latency_scale = (m.latency_scale * 1000.0).round() / 1000.0;
     m.load_store_cycles = (m.load_store_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.compress_cycles = (m.compress_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.scalar_cycles = (m.scalar_cycles * 1000.0).round().max(10.0) / 1000.0;
@@ -967,6 +1005,7 @@ mod tests {
                 model: 2,
                 clock_ghz: 2.0,
                 threads: 1,
+                threads_per_core: 1,
                 caches: vec![(1, 32, 8), (2, 512, 8), (3, 4096, 16)],
                 backend: sism_simd::BackendKind::Avx512,
             },
@@ -974,7 +1013,7 @@ mod tests {
         );
         truth.memory_parallelism = FIT_PARALLELISM;
         truth.vector_cycles = 0.7;
-        truth.vector_latency_cycles = 3.3;
+        truth.latency_scale = 0.825;
         truth.load_store_cycles = 0.4;
         truth.compress_cycles = 3.0;
         truth.scalar_cycles = 0.35;
@@ -982,6 +1021,7 @@ mod tests {
         truth.gather_cycles = 11.0;
         truth.atomic_cycles = 70;
         truth.l2_latency = 12;
+        truth.page_fault_cycles = 4321.0;
         truth.l3_latency = 40;
         truth.task_overhead_cycles = 1500.0;
         truth.barrier_cycles = 8000;
@@ -1009,6 +1049,7 @@ mod tests {
             },
             Kind::Compress { .. } => Kind::Compress { count: 500 },
             Kind::Copy { .. } => Kind::Copy { passes: 100 },
+            Kind::FreshPages { .. } => Kind::FreshPages { bytes: 4 << 20 },
             k => k,
         };
         let measured: Vec<Measured> = BENCHES
@@ -1040,9 +1081,9 @@ mod tests {
         let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
         assert!(near(c.vector_cycles, 0.7, 0.02), "vector {}", c.vector_cycles);
         assert!(
-            near(c.vector_latency_cycles, 3.3, 0.02),
+            near(c.latency_scale, 0.825, 0.02),
             "vector latency {}",
-            c.vector_latency_cycles
+            c.latency_scale
         );
         assert!(near(c.scalar_cycles, 0.35, 0.02), "scalar {}", c.scalar_cycles);
         assert!(
@@ -1057,6 +1098,11 @@ mod tests {
         );
         assert_eq!(c.transcendental_cycles, 9);
         assert!(near(c.gather_cycles, 11.0, 0.02), "gather {}", c.gather_cycles);
+        assert!(
+            near(c.page_fault_cycles, 4321.0, 0.02),
+            "page fault {}",
+            c.page_fault_cycles
+        );
         assert_eq!(c.atomic_cycles, 70);
         assert!(c.l2_latency.abs_diff(12) <= 1, "l2 {}", c.l2_latency);
         assert!(c.l3_latency.abs_diff(40) <= 1, "l3 {}", c.l3_latency);

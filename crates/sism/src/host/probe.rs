@@ -31,9 +31,41 @@ pub fn probe() -> HostFacts {
         model: field("model").and_then(|v| v.parse().ok()).unwrap_or(0),
         clock_ghz: mhz.map(|m| m / 1000.0).unwrap_or(2.5),
         threads,
+        threads_per_core: read_siblings(Path::new(
+            "/sys/devices/system/cpu/cpu0/topology/thread_siblings_list",
+        ))
+        .clamp(1, threads),
         caches: read_caches(Path::new("/sys/devices/system/cpu/cpu0/cache")),
         backend: sism_simd::selected_backend(),
     }
+}
+
+/// Hardware threads of cpu0's core: the CPUs its `thread_siblings_list` names (`0`, `0,64`,
+/// `0-1`); 1 when the file is missing or unreadable.
+fn read_siblings(path: &Path) -> u32 {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    parse_cpu_list(text.trim()).unwrap_or(1).max(1)
+}
+
+/// The number of CPUs in a `/sys` CPU list (`0-3,8,10-11` → 7); `None` when malformed.
+fn parse_cpu_list(s: &str) -> Option<u32> {
+    let mut n = 0u32;
+    for part in s.split(',') {
+        n = n.checked_add(match part.split_once('-') {
+            Some((a, b)) => {
+                b.trim()
+                    .parse::<u32>()
+                    .ok()?
+                    .checked_sub(a.trim().parse::<u32>().ok()?)?
+                    + 1
+            }
+            None => {
+                part.trim().parse::<u32>().ok()?;
+                1
+            }
+        })?;
+    }
+    Some(n)
 }
 
 /// The data and unified caches under `dir` (`index*/`), as (level, KB, ways), sorted by level.
@@ -95,6 +127,17 @@ mod tests {
         assert_eq!(parse_kb("512"), Some(512));
         assert_eq!(parse_kb("junk"), None);
         assert_eq!(parse_kb(""), None);
+    }
+
+    #[test]
+    fn cpu_lists_parse() {
+        assert_eq!(parse_cpu_list("0"), Some(1));
+        assert_eq!(parse_cpu_list("0,64"), Some(2));
+        assert_eq!(parse_cpu_list("0-1"), Some(2));
+        assert_eq!(parse_cpu_list("0-3,8,10-11"), Some(7));
+        assert_eq!(parse_cpu_list("3-1"), None);
+        assert_eq!(parse_cpu_list(""), None);
+        assert_eq!(parse_cpu_list("x"), None);
     }
 
     #[test]

@@ -16,8 +16,12 @@ use crate::render::{self, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::StatsReport;
 
-/// The major phases validation scores (eye pass, grid, umbra, penumbra), where a frame has them.
-pub const MAJOR_PHASES: &[&str] = &["eye_pass", "grid", "umbra", "penumbra"];
+/// A phase the model times is *major* (scored beside the frame) when its measured time is at
+/// least this share of the measured frame.
+pub const MAJOR_SHARE: f64 = 0.10;
+
+/// Suffix of the line that shows a phase's host work outside its steps (`grid.outside`).
+pub const OUTSIDE: &str = "outside";
 
 /// One phase (or step, or the frame) predicted against measured.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,12 +32,16 @@ pub struct Row {
     pub algorithm: String,
     /// Host threads of the native run = cores of the model.
     pub threads: u32,
-    /// `frame`, a phase (`grid`) or a step (`grid.classify`).
+    /// `frame`, a phase (`grid`), a step (`grid.classify`), or a phase's host work outside its
+    /// steps (`grid.outside`, and `frame.outside` for the frame's).
     pub phase: String,
     /// Median native host time, ms.
     pub measured_ms: f64,
-    /// The model's time, ms (`None`: the phase ran no kernel, the model does not time it).
+    /// The model's time, ms (`None`: the phase ran no kernel, or the line is host work outside
+    /// the steps, which the model does not time).
     pub predicted_ms: Option<f64>,
+    /// A major phase ([`MAJOR_SHARE`]); false for steps, frames and the outside lines.
+    pub major: bool,
 }
 
 impl Row {
@@ -42,10 +50,31 @@ impl Row {
         let p = self.predicted_ms?;
         (self.measured_ms > 0.0).then(|| (p - self.measured_ms) / self.measured_ms)
     }
-    /// A phase (not a step, not the frame) of [`MAJOR_PHASES`]?
+    /// A major phase ([`MAJOR_SHARE`]; not a step, not the frame)?
     pub fn is_major(&self) -> bool {
-        MAJOR_PHASES.contains(&self.phase.as_str())
+        self.major
     }
+    /// Scored in the summary: a major phase or a frame, with a prediction.
+    pub fn is_scored(&self) -> bool {
+        (self.major || self.phase == "frame") && self.error().is_some()
+    }
+}
+
+/// The summary of the scored rows ([`Row::is_scored`]): how many, how many within `tolerance`,
+/// and the mean |error|.
+pub fn summary(rows: &[Row], tolerance: f64) -> (usize, usize, f64) {
+    let errors: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.is_scored())
+        .filter_map(Row::error)
+        .collect();
+    let within = errors.iter().filter(|e| e.abs() <= tolerance).count();
+    let mean = if errors.is_empty() {
+        0.0
+    } else {
+        errors.iter().map(|e| e.abs()).sum::<f64>() / errors.len() as f64
+    };
+    (errors.len(), within, mean)
 }
 
 /// Validates one scene and algorithm: rows per thread count in `threads` (each 1..=host threads
@@ -81,7 +110,10 @@ pub fn validate(
     let mut configs = Vec::with_capacity(threads.len());
     for &t in threads {
         let mut config = model.clone();
-        config.cores = t;
+        // `t` host threads on cores of the model's `threads_per_core` SMT threads.
+        let smt = model.threads_per_core.max(1);
+        config.cores = t.div_ceil(smt);
+        config.threads_per_core = smt.min(t);
         config
             .validate()
             .map_err(|(k, e)| crate::Error::invalid(format!("the model with {t} cores: `{k}` {e}")))?;
@@ -98,6 +130,7 @@ pub fn validate(
             .build()
             .map_err(|e| crate::Error::External(format!("cannot start {t} host threads: {e}")))?;
         let times = pool.install(|| native_times(&prepared, algorithm, params, frames));
+        let first = rows.len();
         let mut push = |phase: &str, measured: Option<f64>, predicted: Option<f64>| {
             if let Some(m) = measured {
                 rows.push(Row {
@@ -107,6 +140,7 @@ pub fn validate(
                     phase: phase.to_string(),
                     measured_ms: m,
                     predicted_ms: predicted,
+                    major: false,
                 });
             }
         };
@@ -114,30 +148,72 @@ pub fn validate(
             let key = format!("time.{phase}");
             median(times.iter().filter_map(|f| f.stats.get(&key)))
         };
-        // Phases in the native frame's order; the model's group when it has one.
+        // The work the model times in a phase, per native frame: its steps' time when it has
+        // steps (the rest, allocation and merging between them, is the phase's outside line),
+        // else the phase's.
         let order = times.first().map(|f| f.order.clone()).unwrap_or_default();
-        for phase in order.iter().filter(|p| !p.contains('.')) {
+        let steps_of = |phase: &str| -> Vec<String> {
+            order
+                .iter()
+                .filter(|s| s.strip_prefix(phase).is_some_and(|rest| rest.starts_with('.')))
+                .cloned()
+                .collect()
+        };
+        let same_work = |f: &FrameTimes, phase: &str| -> Option<f64> {
+            let steps = steps_of(phase);
+            if steps.is_empty() {
+                f.stats.get(&format!("time.{phase}"))
+            } else {
+                Some(
+                    steps
+                        .iter()
+                        .filter_map(|s| f.stats.get(&format!("time.{s}")))
+                        .sum(),
+                )
+            }
+        };
+        let phases: Vec<&String> = order.iter().filter(|p| !p.contains('.')).collect();
+        let model_of = |phase: &str| report.groups.iter().find(|g| g.phase == phase).map(|g| g.ms);
+        for phase in &phases {
             push(
                 phase,
-                measured(phase),
-                report.groups.iter().find(|g| g.phase == *phase).map(|g| g.ms),
+                median(times.iter().filter_map(|f| same_work(f, phase))),
+                model_of(phase),
             );
+            if !steps_of(phase).is_empty() {
+                let outside = median(times.iter().filter_map(|f| {
+                    Some((f.stats.get(&format!("time.{phase}"))? - same_work(f, phase)?).max(0.0))
+                }));
+                push(&format!("{phase}.{OUTSIDE}"), outside, None);
+            }
         }
         for step in report.phases.iter().filter(|p| p.phase.contains('.')) {
             push(&step.phase, measured(&step.phase), Some(step.ms));
         }
-        // The frame: only the phases the model times, so an untimed phase is not a model error.
-        let timed: Vec<&String> = order
-            .iter()
-            .filter(|p| !p.contains('.') && report.groups.iter().any(|g| g.phase == **p))
-            .collect();
-        let frame_measured = median(times.iter().map(|f| {
+        // The frame: the work the model times, so an untimed phase is not a model error; the
+        // timed phases' work outside their steps is the frame's outside line.
+        let timed: Vec<&&String> = phases.iter().filter(|p| model_of(p).is_some()).collect();
+        let frame_measured = median(
+            times
+                .iter()
+                .map(|f| timed.iter().filter_map(|p| same_work(f, p)).sum::<f64>()),
+        );
+        let frame_outside = median(times.iter().map(|f| {
             timed
                 .iter()
-                .filter_map(|p| f.stats.get(&format!("time.{p}")))
+                .filter_map(|p| Some((f.stats.get(&format!("time.{p}"))? - same_work(f, p)?).max(0.0)))
                 .sum::<f64>()
         }));
         push("frame", frame_measured, Some(report.frame.ms));
+        push(&format!("frame.{OUTSIDE}"), frame_outside, None);
+        // Major phases: timed, and at least MAJOR_SHARE of the frame.
+        let frame_ms = frame_measured.unwrap_or(0.0);
+        for r in &mut rows[first..] {
+            r.major = !r.phase.contains('.')
+                && r.phase != "frame"
+                && r.predicted_ms.is_some()
+                && r.measured_ms >= MAJOR_SHARE * frame_ms;
+        }
     }
     Ok(rows)
 }
@@ -184,14 +260,15 @@ fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
 
 /// `validate.csv`: one row per scene, algorithm, thread count and phase.
 pub fn csv(rows: &[Row]) -> String {
-    let mut s = String::from("scene,algorithm,threads,phase,measured_ms,predicted_ms,error\n");
+    let mut s = String::from("scene,algorithm,threads,phase,major,measured_ms,predicted_ms,error\n");
     for r in rows {
         s += &format!(
-            "{},{},{},{},{:.4},{},{}\n",
+            "{},{},{},{},{},{:.4},{},{}\n",
             r.scene,
             r.algorithm,
             r.threads,
             r.phase,
+            r.major,
             r.measured_ms,
             r.predicted_ms.map(|p| format!("{p:.4}")).unwrap_or_default(),
             r.error().map(|e| format!("{e:.4}")).unwrap_or_default()
@@ -201,8 +278,9 @@ pub fn csv(rows: &[Row]) -> String {
 }
 
 /// The validation table in Markdown: per scene, algorithm and thread count one line with the major
-/// phases and the frame (predicted / measured ms and the error), and a summary of how many are within
-/// `tolerance` (0.25 = ±25%).
+/// phases (predicted / measured ms and the error), the frame, and the host's work outside the
+/// steps (ms and share of the frame's); then the summary: how many of the scored figures are within
+/// `tolerance` (0.25 = ±25%) and their mean |error|, as the last lines.
 pub fn markdown(rows: &[Row], tolerance: f64) -> String {
     let mut keys: Vec<(String, String, u32)> = Vec::new();
     for r in rows {
@@ -211,43 +289,62 @@ pub fn markdown(rows: &[Row], tolerance: f64) -> String {
             keys.push(k);
         }
     }
-    let cols: Vec<&str> = MAJOR_PHASES.iter().copied().chain(["frame"]).collect();
-    let mut s = String::from("| scene | algorithm | threads |");
-    for c in &cols {
-        s += &format!(" {c} model / host ms (error) |");
-    }
-    s += "\n|---|---|---|";
-    for _ in &cols {
-        s += "---|";
-    }
-    s += "\n";
-    let (mut within, mut total) = (0, 0);
+    let mut s = String::from(
+        "| scene | algorithm | threads | major phases: model / host ms (error) | frame: model / host ms (error) | outside the steps: host ms (share) |\n|---|---|---|---|---|---|\n",
+    );
+    let cell = |r: &Row| match (r.predicted_ms, r.error()) {
+        (Some(p), Some(e)) => format!(
+            "{p:.1} / {:.1} ({:+.0}%){}",
+            r.measured_ms,
+            100.0 * e,
+            if e.abs() <= tolerance { "" } else { " ✗" }
+        ),
+        _ => "–".into(),
+    };
     for (scene, algo, t) in &keys {
-        s += &format!("| {scene} | `{algo}` | {t} |");
-        for c in &cols {
-            let cell = rows
-                .iter()
-                .find(|r| &r.scene == scene && &r.algorithm == algo && r.threads == *t && r.phase == *c);
-            match cell.and_then(|r| Some((r, r.predicted_ms?, r.error()?))) {
-                Some((r, p, e)) => {
-                    total += 1;
-                    let ok = e.abs() <= tolerance;
-                    within += ok as usize;
-                    s += &format!(
-                        " {p:.1} / {:.1} ({:+.0}%){} |",
-                        r.measured_ms,
-                        100.0 * e,
-                        if ok { "" } else { " ✗" }
-                    );
-                }
-                None => s += " – |",
-            }
-        }
-        s += "\n";
+        let mine: Vec<&Row> = rows
+            .iter()
+            .filter(|r| &r.scene == scene && &r.algorithm == algo && r.threads == *t)
+            .collect();
+        let majors: Vec<String> = mine
+            .iter()
+            .filter(|r| r.major)
+            .map(|r| format!("{} {}", r.phase, cell(r)))
+            .collect();
+        let frame = mine.iter().find(|r| r.phase == "frame");
+        let outside = mine.iter().find(|r| r.phase == format!("frame.{OUTSIDE}"));
+        let outside = match (outside, frame) {
+            (Some(o), Some(f)) if f.measured_ms + o.measured_ms > 0.0 => format!(
+                "{:.1} ({:.0}%)",
+                o.measured_ms,
+                100.0 * o.measured_ms / (f.measured_ms + o.measured_ms)
+            ),
+            _ => "–".into(),
+        };
+        s += &format!(
+            "| {scene} | `{algo}` | {t} | {} | {} | {outside} |\n",
+            if majors.is_empty() {
+                "–".into()
+            } else {
+                majors.join("; ")
+            },
+            frame.map(|r| cell(r)).unwrap_or_else(|| "–".into()),
+        );
     }
+    let (total, within, mean) = summary(rows, tolerance);
     s += &format!(
-        "\n{within} of {total} figures (major phases and frames) within ±{:.0}%; ✗ marks the others.\n",
-        100.0 * tolerance
+        "\nScored: major phases (≥ {:.0}% of the frame) and frames; ✗ marks those outside ±{:.0}%.\n\
+         mean |error|: {:.1}% over {total} figures\n\
+         within ±{:.0}%: {within} of {total} ({:.0}%)\n",
+        100.0 * MAJOR_SHARE,
+        100.0 * tolerance,
+        100.0 * mean,
+        100.0 * tolerance,
+        if total == 0 {
+            0.0
+        } else {
+            100.0 * within as f64 / total as f64
+        },
     );
     s
 }

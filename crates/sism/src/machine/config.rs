@@ -57,6 +57,7 @@ pub const LIMITS: &[(&str, u64, u64)] = &[
     ("l3_kb", 0, 1_048_576),
     ("l3_ways", 1, 64),
     ("l3_latency", 0, 10_000),
+    ("tlb_entries", 0, 1_000_000),
 ];
 
 /// Ranges of the real fields (inclusive): `clock_ghz` GHz, `dram_latency_ns` ns, `dram_bandwidth_gbs`
@@ -72,8 +73,9 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("gather_cycles", 0.01, 10_000.0),
     ("memory_parallelism", 1.0, 64.0),
     ("task_overhead_cycles", 0.0, 10_000_000.0),
-    ("vector_latency_cycles", 0.0, 10_000.0),
-    ("vector_chains", 1.0, 64.0),
+    ("latency_scale", 0.0, 100.0),
+    ("tlb_miss_cycles", 0.0, 10_000.0),
+    ("page_fault_cycles", 0.0, 10_000_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -178,18 +180,34 @@ pub struct MachineConfig {
     /// Larrabee: 0 (its software scheduler's cost is inside the kernels' scalar counts).
     #[serde(default)]
     pub task_overhead_cycles: f64,
-    /// Cycles from one vector ALU or FMA instruction to the next that needs its result (0–10000;
-    /// 0 = not modelled, as for Larrabee, whose four hardware threads per core hide it). With it a
-    /// task's vector ALU work takes at least `(valu + fma) × vector_latency_cycles / vector_chains`:
-    /// the records hold no dependencies, so `vector_chains` states how many independent chains the
-    /// kernels' code offers a core that has nothing else to run.
-    #[serde(default)]
-    pub vector_latency_cycles: f64,
-    /// Independent dependency chains the kernels' vector code offers one hardware thread (1–64), for
-    /// `vector_latency_cycles`. The sism kernels carry one 16-lane value through each loop
-    /// iteration, Larrabee style (latency hidden by hardware threads, not by unrolling): 1.
+    /// This machine's cycles per nominal latency cycle (0–100; 0 = latency not modelled): the
+    /// factor from the records' critical paths ([`sism_simd::Counters::critical_path`], in the
+    /// nominal latencies of [`sism_simd::latency`], e.g. 4 for a float add) to cycles. An
+    /// out-of-order core (`separate_ports`) spends on a task at least its critical path; on an
+    /// in-order core the part of the critical path beyond the task's issue is a stall, which the
+    /// core's other hardware threads hide as they hide memory stalls (see `timing`). Larrabee: 1
+    /// (assumption: its vector latencies are the nominal ones; Seiler 2008 gives none). Hosts:
+    /// fitted by `sism calibrate` on one dependency chain.
     #[serde(default = "one")]
-    pub vector_chains: f64,
+    pub latency_scale: f64,
+    /// TLB entries of one core for 4 KiB pages, counting its second-level TLB (0–1e6; 0 = TLB not
+    /// modelled). A task touching more distinct pages than this misses on each page beyond them.
+    /// Larrabee: 0 (assumption: its renderer keeps its buffers in the 4 MiB pages its P54C-derived
+    /// cores support, so a core's TLB reaches a frame's working set; Seiler 2008 gives no TLB
+    /// figures). Hosts: the vendor's second-level data TLB (e.g. Zen 4: 3072, Ice Lake SP: 2048).
+    #[serde(default)]
+    pub tlb_entries: u32,
+    /// Cycles of one TLB miss: a page walk whose entries hit in the caches (0–10000). Hosts: about
+    /// 30 (the walkers' measured cost with the page-walk caches at work).
+    #[serde(default)]
+    pub tlb_miss_cycles: f64,
+    /// Cycles of the first touch of a freshly allocated 4 KiB page: the operating system's page
+    /// fault, zeroing included (0–1e7). A page whose first access in the frame is a write is taken
+    /// to be fresh. Larrabee: 0 (assumption: the renderer allocates its buffers once and reuses
+    /// them, as a console-style renderer does). Hosts: fitted by `sism calibrate` on first touches
+    /// of fresh memory.
+    #[serde(default)]
+    pub page_fault_cycles: f64,
     /// A last-level cache shared by all cores, KB (0 = none, as on Larrabee, whose L2 subsets are the
     /// last level). An L2 miss looks it up before going to DRAM.
     #[serde(default)]
@@ -263,8 +281,10 @@ impl MachineConfig {
             separate_ports: false,
             memory_parallelism: 1.0,
             task_overhead_cycles: 0.0,
-            vector_latency_cycles: 0.0,
-            vector_chains: 1.0,
+            latency_scale: 1.0,
+            tlb_entries: 0,
+            tlb_miss_cycles: 0.0,
+            page_fault_cycles: 0.0,
             l3_kb: 0,
             l3_ways: 16,
             l3_latency: 0,
@@ -480,6 +500,7 @@ impl MachineConfig {
             "l3_kb" => self.l3_kb,
             "l3_ways" => self.l3_ways,
             "l3_latency" => self.l3_latency,
+            "tlb_entries" => self.tlb_entries,
             _ => unreachable!("not an integer field: {key}"),
         }) as u64
     }
@@ -497,8 +518,9 @@ impl MachineConfig {
             "gather_cycles" => self.gather_cycles,
             "memory_parallelism" => self.memory_parallelism,
             "task_overhead_cycles" => self.task_overhead_cycles,
-            "vector_latency_cycles" => self.vector_latency_cycles,
-            "vector_chains" => self.vector_chains,
+            "latency_scale" => self.latency_scale,
+            "tlb_miss_cycles" => self.tlb_miss_cycles,
+            "page_fault_cycles" => self.page_fault_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

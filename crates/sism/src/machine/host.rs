@@ -66,6 +66,11 @@ pub struct CpuFamily {
     pub task_overhead: f64,
     /// Host cost of the join ending a step (rayon's), cycles.
     pub barrier: u32,
+    /// Second-level data TLB entries for 4 KiB pages (AMD's and Intel's optimisation guides).
+    pub tlb_entries: u32,
+    /// First touch of a fresh 4 KiB page (a minor fault, zeroing included, in a VM), cycles; the
+    /// starting point `sism calibrate` fits.
+    pub page_fault: f64,
 }
 
 /// The family table. Zen 4 double-pumps 512-bit operations; Zen 5 and Intel's server cores have two
@@ -89,6 +94,8 @@ pub const FAMILIES: &[CpuFamily] = &[
         dram_bandwidth_gbs: 30.0,
         task_overhead: 2000.0,
         barrier: 10_000,
+        tlb_entries: 4096,
+        page_fault: 5000.0,
     },
     CpuFamily {
         name: "zen4",
@@ -108,6 +115,8 @@ pub const FAMILIES: &[CpuFamily] = &[
         dram_bandwidth_gbs: 30.0,
         task_overhead: 2000.0,
         barrier: 10_000,
+        tlb_entries: 3072,
+        page_fault: 5000.0,
     },
     CpuFamily {
         name: "sapphire-rapids",
@@ -127,6 +136,8 @@ pub const FAMILIES: &[CpuFamily] = &[
         dram_bandwidth_gbs: 25.0,
         task_overhead: 2000.0,
         barrier: 10_000,
+        tlb_entries: 2048,
+        page_fault: 5000.0,
     },
     CpuFamily {
         name: "icelake-sp",
@@ -146,6 +157,8 @@ pub const FAMILIES: &[CpuFamily] = &[
         dram_bandwidth_gbs: 20.0,
         task_overhead: 2000.0,
         barrier: 10_000,
+        tlb_entries: 1536,
+        page_fault: 5000.0,
     },
     CpuFamily {
         name: "generic-x86",
@@ -165,6 +178,8 @@ pub const FAMILIES: &[CpuFamily] = &[
         dram_bandwidth_gbs: 20.0,
         task_overhead: 2000.0,
         barrier: 10_000,
+        tlb_entries: 1536,
+        page_fault: 5000.0,
     },
 ];
 
@@ -198,6 +213,8 @@ pub struct HostFacts {
     pub clock_ghz: f64,
     /// Host threads sism may use.
     pub threads: u32,
+    /// Hardware threads per physical core among them (SMT siblings in `/sys`; 1 without SMT).
+    pub threads_per_core: u32,
     /// Caches: (level, size KB, ways), data and unified only, in level order.
     pub caches: Vec<(u32, u32, u32)>,
     /// The SIMD backend this process runs its kernels on (it decides the vector costs).
@@ -242,8 +259,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
     };
     MachineConfig {
         name: "host".into(),
-        cores: facts.threads,
-        threads_per_core: 1,
+        // SMT siblings are one modelled core with that many threads.
+        cores: facts.threads.div_ceil(facts.threads_per_core.max(1)),
+        threads_per_core: facts.threads_per_core.clamp(1, facts.threads.max(1)),
         simd_width: 16,
         clock_ghz: facts.clock_ghz,
         vector_issue_per_clock: 1,
@@ -273,8 +291,12 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         separate_ports: true,
         memory_parallelism: fam.memory_parallelism,
         task_overhead_cycles: fam.task_overhead,
-        vector_latency_cycles: fam.vector_latency,
-        vector_chains: 1.0,
+        tlb_entries: fam.tlb_entries,
+        // A page walk with the page-walk caches at work (assumption, for every family).
+        tlb_miss_cycles: 30.0,
+        page_fault_cycles: fam.page_fault,
+        // The family's float add latency against the nominal one the records are measured in.
+        latency_scale: fam.vector_latency / sism_simd::latency::ARITH as f64,
         l3_kb,
         l3_ways,
         l3_latency: if l3_kb > 0 { fam.l3_latency } else { 0 },
@@ -316,6 +338,7 @@ mod tests {
                     model,
                     clock_ghz: 2.6,
                     threads: 2,
+                    threads_per_core: 2,
                     caches,
                     backend: sism_simd::BackendKind::Portable,
                 };
@@ -327,7 +350,8 @@ mod tests {
                     let m = host_preset_from(&facts, b);
                     m.validate()
                         .unwrap_or_else(|(k, e)| panic!("{vendor} {b:?}: {k} {e}"));
-                    assert!(m.separate_ports && m.cores == 2);
+                    // Two SMT siblings: one core with two threads.
+                    assert!(m.separate_ports && m.cores == 1 && m.threads_per_core == 2);
                 }
             }
         }

@@ -17,10 +17,12 @@
 //!   `compress_cycles`, `scalar_cycles`, all 1 on Larrabee), and a gather or scatter costs at least
 //!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores,
 //!   and scalar work issue on their own ports: `max(vector ALU, load/store, scalar)`.
-//! * **Dependency chains** (when `vector_latency_cycles` > 0, the host model): the records hold no
-//!   dependencies, so the vector ALU work of a task is taken to form `vector_chains` independent
-//!   chains and costs at least `(valu + fma) × vector_latency_cycles / vector_chains`. Larrabee hides
-//!   this latency with its four hardware threads and leaves it at 0.
+//! * **Dependency chains**: every record carries its task's critical path (the longest chain of
+//!   dependent vector operations, recorded as the task ran, in nominal latency cycles), which
+//!   `latency_scale` turns into cycles. An out-of-order core (`separate_ports`) spends on a task at
+//!   least its critical path: `issue = max(issue bound, chain)`. On an in-order core the chain's
+//!   excess over the issue, `max(0, chain − issue)`, is a stall that the core's other hardware
+//!   threads hide like a memory stall (below); what they cannot hide counts as issue time.
 //! * **Host scheduling**: each task costs `task_overhead_cycles` to start (0 on Larrabee), counted
 //!   with the atomics as synchronisation.
 //! * **Atomics**: each vector fetch-add costs `atomic_cycles`, plus `atomic_conflict_cycles` per
@@ -51,8 +53,10 @@
 
 use sism_simd::{Counters, TaskRecord};
 
-use super::cache::{Cache, LineIds};
+use super::cache::{Cache, LineHasher, LineIds, PAGE_BYTES};
 use super::config::MachineConfig;
+use std::collections::HashSet;
+use std::hash::BuildHasherDefault;
 
 /// Where a phase's (or frame's) cycles went; the parts sum exactly to [`CycleStack::total`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -105,6 +109,10 @@ pub struct MemoryCounts {
     pub l3_hits: u64,
     /// Dirty lines evicted from the last level (L2, or the shared cache) and written back to DRAM.
     pub writebacks: u64,
+    /// TLB misses: per task, distinct 4 KiB pages beyond `tlb_entries` (0 when not modelled).
+    pub tlb_misses: u64,
+    /// First touches of freshly allocated 4 KiB pages ([`TaskPages::fresh`]).
+    pub page_faults: u64,
 }
 
 impl MemoryCounts {
@@ -114,6 +122,8 @@ impl MemoryCounts {
         self.l2_misses += o.l2_misses;
         self.l3_hits += o.l3_hits;
         self.writebacks += o.writebacks;
+        self.tlb_misses += o.tlb_misses;
+        self.page_faults += o.page_faults;
     }
     /// L1 misses per access (0 with no access).
     pub fn l1_miss_rate(&self) -> f64 {
@@ -182,15 +192,15 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         + (gs_lines as f64).max(gs_floor);
     let scalar =
         (c.scalar.saturating_add(c.mask) as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64).ceil();
-    // Dependent vector operations wait for each other (when the latency is modelled): the ALU work
-    // takes at least its chains' length, however wide the issue.
-    let chain = c.valu.saturating_add(c.fma) as f64 * m.vector_latency_cycles / m.vector_chains;
     let issue = if m.separate_ports {
-        (((alu + compress) / vip).max(chain).ceil() + gathers)
+        // Out of order: dependent operations wait for each other, so the task takes at least its
+        // critical path, however wide the issue.
+        (((alu + compress) / vip).ceil() + gathers)
             .max((mem / vip).ceil())
             .max(scalar)
+            .max(chain_cycles(c, m) as f64)
     } else {
-        (((alu + mem + compress) / vip).max(chain).ceil() + gathers).max(scalar)
+        (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
     };
     let atomics = c
         .atomic
@@ -198,6 +208,11 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         .saturating_add(c.atomic_conflicts.saturating_mul(m.atomic_conflict_cycles as u64));
     // `as` saturates a float beyond u64's range.
     (issue.ceil() as u64, atomics)
+}
+
+/// The task's critical path in this machine's cycles (`critical_path × latency_scale`, rounded up).
+pub fn chain_cycles(c: &Counters, m: &MachineConfig) -> u64 {
+    (c.critical_path as f64 * m.latency_scale).ceil() as u64
 }
 
 /// The exposed part of `stall` for a task of `busy` cycles on a core of `threads` threads.
@@ -293,7 +308,7 @@ pub struct Machine<'a> {
     cores: Vec<Core>,
     /// The shared last-level cache, when the configuration has one (`l3_kb` > 0).
     l3: Option<Cache>,
-    ids: LineIds,
+    ids: LineMapper,
     dram_miss: u64,
 }
 
@@ -312,7 +327,7 @@ impl<'a> Machine<'a> {
             config,
             cores,
             l3,
-            ids: LineIds::new(),
+            ids: LineMapper::default(),
             // With a shared cache, a DRAM miss first misses it.
             dram_miss: config.dram_miss_cycles()
                 + if config.l3_kb > 0 {
@@ -329,19 +344,37 @@ impl<'a> Machine<'a> {
         let mut chunk = Vec::new();
         let ids = &mut self.ids;
         let (cores, l3) = (&mut self.cores, &mut self.l3);
-        map_lines(ids, task, &mut chunk, |lines| {
+        let pages = ids.map(task, &mut chunk, |lines| {
             tally.replay(&mut cores[core], l3.as_mut(), lines);
         });
-        self.finish(&task.counters, &tally, mem)
+        self.finish(&task.counters, &tally, pages, mem)
     }
 
     /// The cost of a task of `counters` whose lines were replayed into `tally`, and its memory
     /// counts added to `mem`.
-    fn finish(&self, counters: &Counters, tally: &LineTally, mem: &mut MemoryCounts) -> TaskCost {
+    fn finish(
+        &self,
+        counters: &Counters,
+        tally: &LineTally,
+        pages: TaskPages,
+        mem: &mut MemoryCounts,
+    ) -> TaskCost {
         let m = self.config;
         let (issue, atomics) = compute_cost(counters, m);
         // The host scheduler's cost of starting the task counts as synchronisation.
         let atomics = atomics.saturating_add(m.task_overhead_cycles.ceil() as u64);
+        // In order: the chain's excess over the issue stalls this thread; the core's other threads
+        // issue meanwhile. What they cannot hide is the core executing the chain: issue time.
+        let issue = if m.separate_ports {
+            issue
+        } else {
+            let wait = chain_cycles(counters, m).saturating_sub(issue);
+            issue.saturating_add(exposed_stall(
+                wait,
+                issue.saturating_add(atomics),
+                m.threads_per_core,
+            ))
+        };
         let (l1_lat, l2_lat) = (m.l1_latency as u64, m.l2_latency as u64);
         let dram_misses = tally.l2_misses - tally.l3_hits;
         mem.accesses += tally.accesses;
@@ -349,6 +382,17 @@ impl<'a> Machine<'a> {
         mem.l2_misses += tally.l2_misses;
         mem.l3_hits += tally.l3_hits;
         mem.writebacks += tally.writebacks;
+        let tlb_misses = if m.tlb_entries > 0 {
+            pages.distinct.saturating_sub(m.tlb_entries as u64)
+        } else {
+            0
+        };
+        mem.tlb_misses += tlb_misses;
+        mem.page_faults += pages.fresh;
+        // Page walks and page faults: the kernel's and the walker's time, neither overlapped with
+        // other misses nor hidden by other threads.
+        let paging =
+            (tlb_misses as f64 * m.tlb_miss_cycles + pages.fresh as f64 * m.page_fault_cycles).ceil() as u64;
         let stall = (tally.l1_hits.saturating_mul(l1_lat))
             .saturating_add(tally.l2_hits.saturating_mul(l2_lat))
             .saturating_add(tally.l3_hits.saturating_mul(m.l3_latency as u64))
@@ -360,7 +404,8 @@ impl<'a> Machine<'a> {
         } else {
             stall
         };
-        let exposed = exposed_stall(overlapped, issue.saturating_add(atomics), m.threads_per_core);
+        let exposed = exposed_stall(overlapped, issue.saturating_add(atomics), m.threads_per_core)
+            .saturating_add(paging);
         TaskCost {
             issue,
             atomics,
@@ -373,22 +418,21 @@ impl<'a> Machine<'a> {
     pub fn run_phase(&mut self, phase: &str, tasks: &[TaskRecord]) -> PhaseReport {
         let mut ids = std::mem::take(&mut self.ids);
         let mut chunk = Vec::new();
-        let r = self.run_phase_with(phase, tasks, |task, replay| {
-            map_lines(&mut ids, task, &mut chunk, replay)
-        });
+        let r = self.run_phase_with(phase, tasks, |task, replay| ids.map(task, &mut chunk, replay));
         self.ids = ids;
         r
     }
 
     /// [`Machine::run_phase`] with each task's line ids supplied by `mapped(task, replay)`, which
-    /// calls `replay` with the task's ids ([`map_lines`]' encoding) chunk by chunk, in order (tasks
+    /// calls `replay` with the task's ids ([`LineMapper::map`]'s encoding) chunk by chunk, in order
+    /// and returns the task's pages (tasks
     /// are asked for in record order). The pipelined replay ([`simulate_frame`]) maps lines on
     /// another thread.
     fn run_phase_with(
         &mut self,
         phase: &str,
         tasks: &[TaskRecord],
-        mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])),
+        mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])) -> TaskPages,
     ) -> PhaseReport {
         let m = self.config;
         let n = m.cores as usize;
@@ -402,10 +446,10 @@ impl<'a> Machine<'a> {
             let core = (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core");
             let mut tally = LineTally::default();
             let (cores, l3) = (&mut self.cores, &mut self.l3);
-            mapped(task, &mut |lines| {
+            let pages = mapped(task, &mut |lines| {
                 tally.replay(&mut cores[core], l3.as_mut(), lines)
             });
-            let cost = self.finish(&task.counters, &tally, &mut memory);
+            let cost = self.finish(&task.counters, &tally, pages, &mut memory);
             busy[core] = busy[core].saturating_add(cost.cycles());
             schedule.push((core as u32, cost.cycles()));
             issue = issue.saturating_add(cost.issue);
@@ -459,23 +503,23 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
     std::thread::scope(|scope| {
-        // A message is a chunk of a task's ids and whether it is the task's last.
-        let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, bool)>(PIPELINE_DEPTH);
+        // A message is a chunk of a task's ids and, with the task's last chunk, its pages.
+        let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, Option<TaskPages>)>(PIPELINE_DEPTH);
         let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
         scope.spawn(move || {
             for task in phases.iter().flat_map(|p| p.1.iter()) {
                 let mut buf = empty_rx.try_recv().unwrap_or_default();
                 buf.clear();
                 let mut alive = true;
-                task.lines.for_each(|line, write| {
-                    buf.push(ids.id(line) << 1 | write as u32);
+                let pages = ids.map_each(task, |id| {
+                    buf.push(id);
                     if buf.len() == CHUNK_LINES && alive {
                         let next = empty_rx.try_recv().unwrap_or_default();
-                        alive = full_tx.send((std::mem::replace(&mut buf, next), false)).is_ok();
+                        alive = full_tx.send((std::mem::replace(&mut buf, next), None)).is_ok();
                         buf.clear();
                     }
                 });
-                if !alive || full_tx.send((buf, true)).is_err() {
+                if !alive || full_tx.send((buf, Some(pages))).is_err() {
                     return;
                 }
             }
@@ -484,12 +528,12 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
             .iter()
             .map(|&(name, tasks)| {
                 machine.run_phase_with(name, tasks, |_, replay| loop {
-                    let (chunk, last) = full_rx.recv().expect("the mapping thread maps every task");
+                    let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
                     replay(&chunk);
                     // Hand the buffer back for reuse (the mapper may have finished).
                     let _ = empty_tx.send(chunk);
-                    if last {
-                        break;
+                    if let Some(pages) = pages {
+                        break pages;
                     }
                 })
             })
@@ -498,17 +542,19 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
 }
 
 /// A frame's line streams decoded once into first-touch ids (`id << 1 | is_write`, as
-/// [`map_lines`] gives them), for re-timing the same records on many machines without decoding
+/// [`LineMapper::map`] gives them) with each task's pages, for re-timing the same records on many machines without decoding
 /// them again ([`simulate_decoded`]). Holds 4 bytes per line access.
 pub struct DecodedLines {
     /// Every task's ids, tasks in frame order.
     ids: Vec<u32>,
     /// Task `k`'s ids are `ids[offsets[k]..offsets[k + 1]]` (tasks in frame order; starts at 0).
     offsets: Vec<usize>,
+    /// Task `k`'s pages.
+    pages: Vec<TaskPages>,
 }
 
 impl DecodedLines {
-    /// Decodes every task of `phases` (frame order) with [`map_lines`], as a replay does.
+    /// Decodes every task of `phases` (frame order) with [`LineMapper::map`], as a replay does.
     pub fn decode(phases: &[(&str, &[TaskRecord])]) -> DecodedLines {
         let total: u64 = phases
             .iter()
@@ -517,12 +563,13 @@ impl DecodedLines {
             .sum();
         let mut ids = Vec::with_capacity(total as usize);
         let mut offsets = vec![0];
-        let (mut map, mut chunk) = (LineIds::new(), Vec::new());
+        let (mut map, mut chunk) = (LineMapper::default(), Vec::new());
+        let mut pages = Vec::new();
         for task in phases.iter().flat_map(|p| p.1.iter()) {
-            map_lines(&mut map, task, &mut chunk, |c| ids.extend_from_slice(c));
+            pages.push(map.map(task, &mut chunk, |c| ids.extend_from_slice(c)));
             offsets.push(ids.len());
         }
-        DecodedLines { ids, offsets }
+        DecodedLines { ids, offsets, pages }
     }
 }
 
@@ -534,34 +581,83 @@ pub fn simulate_decoded(
     lines: &DecodedLines,
 ) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
-    let mut task = lines.offsets.windows(2);
+    let mut task = lines.offsets.windows(2).zip(&lines.pages);
     phases
         .iter()
         .map(|&(name, tasks)| {
             machine.run_phase_with(name, tasks, |_, replay| {
-                let span = task.next().expect("one span per task of the same phases");
+                let (span, pages) = task.next().expect("one span per task of the same phases");
                 for chunk in lines.ids[span[0]..span[1]].chunks(CHUNK_LINES) {
                     replay(chunk);
                 }
+                *pages
             })
         })
         .collect()
 }
 
-/// Decodes `task`'s line stream as `id << 1 | is_write`, ids from `ids` (first touch over the frame,
-/// so tasks must be mapped in frame order), calling `replay` with chunks of at most [`CHUNK_LINES`]
-/// ids (`chunk` is the buffer).
-pub fn map_lines(ids: &mut LineIds, task: &TaskRecord, chunk: &mut Vec<u32>, mut replay: impl FnMut(&[u32])) {
-    chunk.clear();
-    task.lines.for_each(|line, write| {
-        chunk.push(ids.id(line) << 1 | write as u32);
-        if chunk.len() == CHUNK_LINES {
-            replay(chunk);
-            chunk.clear();
-        }
-    });
-    replay(chunk);
-    chunk.clear();
+/// What a task's line stream says about 4 KiB pages ([`PAGE_BYTES`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TaskPages {
+    /// Distinct pages the task touched (its TLB footprint).
+    pub distinct: u64,
+    /// Pages first touched in the frame by this task, with a write: taken to be freshly allocated
+    /// memory, whose first touch is a page fault on the host (data a frame only reads, such as the
+    /// scene, was allocated before it).
+    pub fresh: u64,
+}
+
+/// Maps recorded lines to first-touch ids ([`LineIds`], over the whole frame, so tasks must be
+/// mapped in frame order) and tallies each task's pages.
+#[derive(Default)]
+pub struct LineMapper {
+    ids: LineIds,
+    /// The current task's distinct pages.
+    task_pages: HashSet<u64, BuildHasherDefault<LineHasher>>,
+}
+
+impl LineMapper {
+    /// Decodes `task`'s line stream as `id << 1 | is_write`, calling `replay` with chunks of at
+    /// most [`CHUNK_LINES`] ids (`chunk` is the buffer); returns the task's pages.
+    pub fn map(
+        &mut self,
+        task: &TaskRecord,
+        chunk: &mut Vec<u32>,
+        mut replay: impl FnMut(&[u32]),
+    ) -> TaskPages {
+        chunk.clear();
+        let pages = self.map_each(task, |id| {
+            chunk.push(id);
+            if chunk.len() == CHUNK_LINES {
+                replay(chunk);
+                chunk.clear();
+            }
+        });
+        replay(chunk);
+        chunk.clear();
+        pages
+    }
+
+    /// [`LineMapper::map`] one id at a time.
+    pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
+        let lines_per_page = PAGE_BYTES / 64;
+        let mut pages = TaskPages::default();
+        let mut last_page = u64::MAX;
+        self.task_pages.clear();
+        task.lines.for_each(|line, write| {
+            let (id, new_page) = self.ids.id_and_page(line);
+            pages.fresh += (new_page && write) as u64;
+            let page = line / lines_per_page;
+            // Streams stay in a page for 64 lines: only a change of page is looked up.
+            if page != last_page {
+                last_page = page;
+                self.task_pages.insert(page);
+            }
+            each(id << 1 | write as u32);
+        });
+        pages.distinct = self.task_pages.len() as u64;
+        pages
+    }
 }
 
 /// The frame's totals from its phases: cycles, stack, counters and memory counts summed; the
@@ -626,21 +722,43 @@ mod tests {
     }
 
     #[test]
-    fn vector_latency_bounds_dependent_chains() {
+    fn the_critical_path_bounds_an_out_of_order_task() {
         let mut m = MachineConfig::larrabee_24();
-        let c = Counters {
+        m.separate_ports = true;
+        let mut c = Counters {
             valu: 8,
             fma: 4,
             ..Default::default()
         };
         // Throughput only: 12 issue cycles.
         assert_eq!(compute_cost(&c, &m).0, 12);
-        // One chain at 3 cycles a step: 36; two chains: 18; eight chains: back to the issue bound.
-        m.vector_latency_cycles = 3.0;
+        // A 36-cycle chain at scale 1, then at 0.5.
+        c.critical_path = 36;
         assert_eq!(compute_cost(&c, &m).0, 36);
-        m.vector_chains = 2.0;
+        m.latency_scale = 0.5;
         assert_eq!(compute_cost(&c, &m).0, 18);
-        m.vector_chains = 8.0;
+        m.latency_scale = 0.25;
         assert_eq!(compute_cost(&c, &m).0, 12);
+    }
+
+    #[test]
+    fn in_order_threads_hide_the_chain_beyond_the_issue() {
+        let mut m = MachineConfig::larrabee_24();
+        let counters = Counters {
+            valu: 10,
+            critical_path: 100,
+            ..Default::default()
+        };
+        let task = TaskRecord {
+            counters,
+            ..Default::default()
+        };
+        let mut mem = MemoryCounts::default();
+        // Four threads: 90 cycles of waiting, 30 hidden by the others' issue, (90 − 30) / 4 = 15.
+        m.threads_per_core = 4;
+        assert_eq!(Machine::new(&m).run_task(0, &task, &mut mem).issue, 25);
+        // One thread: the whole chain.
+        m.threads_per_core = 1;
+        assert_eq!(Machine::new(&m).run_task(0, &task, &mut mem).issue, 100);
     }
 }

@@ -578,24 +578,16 @@ impl<'a> WedgeScan<'a> {
         Some(n)
     }
 
-    /// For each quad of `quads` (indices into `edges`) that reaches the part, `visit(edge, samples
-    /// inside its wedge)`.
+    /// The part's samples inside `edge`'s wedge (part-local indices), `None` when its quad misses
+    /// the part. Callers loop over their quads themselves: a closure per quad would be compiled
+    /// without the kernel's target features, and the vector operations inside it would become
+    /// calls (measured: `sism-sampled`'s light points 7× slower on AVX-512).
     #[inline(always)]
-    pub fn scan<'q, S: Simd>(
-        &mut self,
-        s: S,
-        edges: &[EdgeRecord],
-        quads: impl Iterator<Item = &'q u32>,
-        mut visit: impl FnMut(&EdgeRecord, &[i32]),
-    ) {
-        for &e in quads {
-            let edge = &edges[e as usize];
-            // Preparing the quad for the part (~60).
-            s.scalar_ops(60);
-            if let Some(n) = self.select(s, edge) {
-                visit(edge, &self.selected[..n]);
-            }
-        }
+    pub fn quad<S: Simd>(&mut self, s: S, edge: &EdgeRecord) -> Option<&[i32]> {
+        // Preparing the quad for the part (~60).
+        s.scalar_ops(60);
+        let n = self.select(s, edge)?;
+        Some(&self.selected[..n])
     }
 
     /// A penumbra task's output ([`run_parts`]): `[rows culled, samples culled, samples evaluated,
@@ -725,9 +717,12 @@ impl Kernel for PenumbraBin<'_> {
         s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);
-        wedge.scan(s, self.edges, self.quads.iter(), |edge, selected| {
-            add_edge_terms(s, selected, positions, edge, self.light.radius, self.out);
-        });
+        for &e in self.quads {
+            let edge = &self.edges[e as usize];
+            if let Some(selected) = wedge.quad(s, edge) {
+                add_edge_terms(s, selected, positions, edge, self.light.radius, self.out);
+            }
+        }
         s.end_task();
         wedge.output()
     }

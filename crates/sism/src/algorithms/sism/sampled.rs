@@ -431,12 +431,9 @@ impl Kernel for EvaluationEstimate<'_> {
     fn run<S: Simd>(self, s: S) -> u64 {
         s.begin_task(task_kind::SAMPLED_BIN);
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, false);
-        wedge.scan(
-            s,
-            self.edges,
-            self.quads.iter().step_by(ESTIMATE_STRIDE),
-            |_, _| {},
-        );
+        for &e in self.quads.iter().step_by(ESTIMATE_STRIDE) {
+            wedge.quad(s, &self.edges[e as usize]);
+        }
         s.end_task();
         wedge.evaluated * ESTIMATE_STRIDE as u64
     }
@@ -543,19 +540,22 @@ impl Kernel for SampledBin<'_> {
             LightPointEstimator::Hybrid => vec![0f32; n_samples],
             LightPointEstimator::Fraction => Vec::new(),
         };
-        wedge.scan(s, self.edges, self.quads.iter(), |edge, selected| {
-            add_edge_points(
-                s,
-                selected,
-                positions,
-                &bases,
-                self.points,
-                edge,
-                self.light.radius,
-                &mut counts,
-                &mut sums,
-            );
-        });
+        for &e in self.quads {
+            let edge = &self.edges[e as usize];
+            if let Some(selected) = wedge.quad(s, edge) {
+                add_edge_points(
+                    s,
+                    selected,
+                    positions,
+                    &bases,
+                    self.points,
+                    edge,
+                    self.light.radius,
+                    &mut counts,
+                    &mut sums,
+                );
+            }
+        }
         // Lit points: count (centre depth complexity + edge weights) exactly zero. A negative count (an
         // edge subtracted where the light-centre silhouette differs from the point's) counts as
         // occluded: measured closer to the reference on the shared scenes (stanford-bunny MAE 0.0015

@@ -62,11 +62,14 @@ pub fn predicted_vs_measured(path: &Path, rows: &[Row], tolerance: f64) -> crate
                 .draw_series(LineSeries::new(line(k), BLACK.mix(0.3)))
                 .map_err(|e| draw_error(path, &e))?;
         }
-        let series: Vec<&str> = crate::host::validate::MAJOR_PHASES
-            .iter()
-            .copied()
-            .chain(["frame"])
-            .collect();
+        // One colour per major phase name, in first-seen order, and the frames last.
+        let mut series: Vec<&str> = Vec::new();
+        for (row, _) in &points {
+            if row.phase != "frame" && !series.contains(&row.phase.as_str()) {
+                series.push(&row.phase);
+            }
+        }
+        series.push("frame");
         for (i, name) in series.iter().enumerate() {
             let (r, g, b) = super::PALETTE[i % super::PALETTE.len()];
             let colour = RGBColor(r, g, b);
