@@ -26,21 +26,25 @@ struct State {
     base: u64,
     /// Largest depth produced so far (by any task of this recorder).
     top: u64,
-    /// Completion depths of the last [`WINDOW`] vector operations (a ring; `issued` mod
+    /// Retirement depths of the last [`WINDOW`] vector operations (a ring; `issued` mod
     /// [`WINDOW`] is the oldest): an operation enters the window only when the one [`WINDOW`]
-    /// before it has completed.
+    /// before it has retired. Retirement is in order: an operation retires when it and every
+    /// earlier one have completed.
     window: Box<[u64; WINDOW]>,
+    /// Retirement depth of the latest operation (the running maximum of completions).
+    retired: u64,
     /// Vector operations issued (indexes the window ring).
     issued: usize,
 }
 
 /// The nominal out-of-order window, in vector operations: an operation cannot start before the
-/// one this many before it has completed (it must retire to make room). About half of a Zen 4 or
-/// Ice Lake reorder buffer (320 / 352 entries): the other half holds the scalar, mask and address
-/// instructions around the vector ones. With it a record's critical path is the time a core of
-/// unbounded issue width but this window would take: long independent chains overlap only as far
-/// as the window reaches (the instruction-window model of Sniper, Carlson et al. 2014).
-pub const WINDOW: usize = 192;
+/// one this many before it has retired (in order), which frees its place. Zen 4's and Ice Lake's
+/// reorder buffers hold 320 and 352 instructions; the kernels' vector operations come with about
+/// as many other instructions (loop control, addresses, mask-register and scalar work), hence 128
+/// vector operations (an assumption, stated; not fitted). With it a record's critical path is the
+/// time a core of unbounded issue width but this window would take: independent chains overlap
+/// only as far as the window reaches (the instruction-window model of Sniper, Carlson et al. 2014).
+pub const WINDOW: usize = 128;
 
 impl Default for Recorder {
     fn default() -> Self {
@@ -65,6 +69,7 @@ impl Recorder {
                 base: 0,
                 top: 0,
                 window: Box::new([0; WINDOW]),
+                retired: 0,
                 issued: 0,
             }),
         }
@@ -319,7 +324,8 @@ impl<'r, B: Simd> Counting<'r, B> {
             c.masked_ops += masked as u64;
             let slot = st.issued % WINDOW;
             let depth = inputs.max(st.base).max(st.window[slot]) + latency;
-            st.window[slot] = depth;
+            st.retired = st.retired.max(depth);
+            st.window[slot] = st.retired;
             st.issued += 1;
             st.top = st.top.max(depth);
             depth

@@ -55,7 +55,8 @@ fn a_chain_is_as_long_as_its_operations_and_independent_ones_overlap() {
 
 #[test]
 fn independent_operations_overlap_only_within_the_window() {
-    // Operation i waits for i − WINDOW: ten windows of independent adds take ten latencies.
+    // Operation i waits for i − WINDOW to retire: ten windows of independent adds take ten
+    // latencies.
     assert_eq!(
         path(Adds {
             n: 10 * WINDOW,
@@ -99,4 +100,29 @@ fn a_task_counts_only_its_own_chain() {
         t[1].counters.critical_path,
         latency::DIV + latency::COMPARE_PERMUTE
     );
+}
+
+/// A divide, then independent adds: they retire only after the divide (in order).
+struct DivideThenAdds;
+impl Kernel for DivideThenAdds {
+    type Output = f32;
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let one = s.splat_f(1.0);
+        s.begin_task(0);
+        let d = s.div_f(one, one);
+        let mut last = one;
+        for _ in 0..WINDOW {
+            last = s.add_f(one, one);
+        }
+        s.end_task();
+        s.extract_f(s.add_f(d, last), 0)
+    }
+}
+
+#[test]
+fn retirement_is_in_order() {
+    let rec = Recorder::with_lines(false);
+    sism_simd::run_counting(&rec, DivideThenAdds);
+    // The last add waits for the divide's slot, which retires at DIV: DIV + ARITH.
+    assert_eq!(rec.take_tasks()[0].counters.critical_path, latency::DIV + latency::ARITH);
 }
