@@ -94,7 +94,10 @@ fn check_idx(op: &str, m: Mask16, idx: __m512i, len: usize) {
     let bad =
         unsafe { _mm512_mask_cmp_epu32_mask::<_MM_CMPINT_NLT>(k(m), idx, _mm512_set1_epi32(lim as i32)) };
     if bad != 0 {
-        common::oob_index(op, m, &to_i(idx), lim as usize);
+        // A bit copy, not a store intrinsic: this cold path must not need the target features.
+        // SAFETY: __m512i and [i32; 16] have the same size and every bit pattern is valid for both.
+        let lanes: [i32; 16] = unsafe { core::mem::transmute(idx) };
+        common::oob_index(op, m, &lanes, lim as usize);
     }
 }
 

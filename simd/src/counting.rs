@@ -833,6 +833,15 @@ impl<B: Simd> Simd for Counting<'_, B> {
         self.rec.with(|st| st.c.scalar += n)
     }
     #[inline(always)]
+    fn scalar_op(self, class: crate::ScalarClass) {
+        self.rec.with(|st| match class {
+            crate::ScalarClass::Alu => st.c.scalar_alu += 1,
+            crate::ScalarClass::Div => st.c.scalar_div += 1,
+            crate::ScalarClass::Branch => st.c.scalar_branch += 1,
+            crate::ScalarClass::Mem => st.c.scalar_mem += 1,
+        })
+    }
+    #[inline(always)]
     fn scalar_touch(self, addr: usize, bytes: usize, write: bool) {
         if bytes == 0 {
             return;

@@ -55,8 +55,17 @@ counters! {
     transcendental,
     /// Mask-register instructions (`mask_and`, `mask_popcnt`, ...).
     mask,
-    /// Scalar instructions reported by the kernel via `scalar_ops(n)`.
+    /// Scalar instructions declared by the kernel via `scalar_ops(n)` (estimates; being replaced
+    /// by the counted classes below).
     scalar,
+    /// Counted scalar ALU operations (`s_add`, `s_mul`, `s_min`, conversions, ...).
+    scalar_alu,
+    /// Counted scalar divides and square roots.
+    scalar_div,
+    /// Counted scalar compares and branches.
+    scalar_branch,
+    /// Counted scalar loads and stores.
+    scalar_mem,
     /// Contiguous vector loads (incl. masked and `from_array`).
     load,
     /// Contiguous vector stores (incl. masked and `to_array`).
@@ -106,6 +115,10 @@ impl Counters {
             + self.transcendental
             + self.mask
             + self.scalar
+            + self.scalar_alu
+            + self.scalar_div
+            + self.scalar_branch
+            + self.scalar_mem
             + self.load
             + self.store
             + self.gather
@@ -152,7 +165,7 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 }
 
 const MAGIC: u8 = 0x5A;
-// Version 2: `critical_path` counter.
+// Version 2: `critical_path` and the counted scalar classes.
 const VERSION: u8 = 2;
 
 impl TaskRecord {

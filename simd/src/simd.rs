@@ -31,6 +31,49 @@ impl BackendKind {
     }
 }
 
+/// Class of a counted scalar operation ([`Simd::scalar_op`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScalarClass {
+    /// Integer and float add, subtract, multiply, min/max, abs, rounding, conversions.
+    Alu,
+    /// Divides and square roots (long latency, not pipelined on most cores).
+    Div,
+    /// Compares feeding branches, and branches.
+    Branch,
+    /// Loads and stores (their lines go into the task's line stream).
+    Mem,
+}
+
+/// The scalar number types the counted scalar operations take.
+pub trait ScalarNum:
+    Copy
+    + PartialOrd
+    + core::ops::Add<Output = Self>
+    + core::ops::Sub<Output = Self>
+    + core::ops::Mul<Output = Self>
+    + core::ops::Div<Output = Self>
+{
+    /// The type's own `min` (floats: `f32::min`'s NaN rule).
+    fn min_of(self, b: Self) -> Self;
+    /// The type's own `max`.
+    fn max_of(self, b: Self) -> Self;
+}
+macro_rules! scalar_num {
+    ($($t:ty),*) => { $(
+        impl ScalarNum for $t {
+            #[inline(always)]
+            fn min_of(self, b: Self) -> Self {
+                self.min(b)
+            }
+            #[inline(always)]
+            fn max_of(self, b: Self) -> Self {
+                self.max(b)
+            }
+        }
+    )* };
+}
+scalar_num!(f32, f64, i32, u32, i64, u64, usize);
+
 /// The 16-wide vector instruction set, in the style of Larrabee's LRBni.
 ///
 /// A *context* `S: Simd` is a zero-sized (or pointer-sized, for counting)
@@ -447,6 +490,118 @@ pub trait Simd: Copy {
     #[inline(always)]
     fn scalar_ops(self, n: u64) {
         let _ = n;
+    }
+    /// Count one scalar operation of `class` executed by the kernel (a no-op natively). Kernels
+    /// call the counted operations below ([`Simd::s_add`], [`Simd::s_lt`], [`Simd::s_load`], ...),
+    /// which execute the operation and count it here.
+    #[inline(always)]
+    fn scalar_op(self, class: ScalarClass) {
+        let _ = class;
+    }
+
+    // ------------------------------------------------------------------
+    // Counted scalar operations: the operation itself, counted by class under the counting
+    // context (natively exactly the plain operation).
+    // ------------------------------------------------------------------
+
+    /// Scalar `a + b` (counted: [`ScalarClass::Alu`]).
+    #[inline(always)]
+    fn s_add<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Alu);
+        a + b
+    }
+    /// Scalar `a - b` ([`ScalarClass::Alu`]).
+    #[inline(always)]
+    fn s_sub<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Alu);
+        a - b
+    }
+    /// Scalar `a * b` ([`ScalarClass::Alu`]).
+    #[inline(always)]
+    fn s_mul<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Alu);
+        a * b
+    }
+    /// Scalar `a / b` ([`ScalarClass::Div`]).
+    #[inline(always)]
+    fn s_div<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Div);
+        a / b
+    }
+    /// Scalar `a.min(b)`, the type's own ([`ScalarClass::Alu`]).
+    #[inline(always)]
+    fn s_min<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Alu);
+        a.min_of(b)
+    }
+    /// Scalar `a.max(b)`, the type's own ([`ScalarClass::Alu`]).
+    #[inline(always)]
+    fn s_max<T: ScalarNum>(self, a: T, b: T) -> T {
+        self.scalar_op(ScalarClass::Alu);
+        a.max_of(b)
+    }
+    /// Scalar float `f(x)` of the float library (`f64::sqrt`, `f32::floor`, ...): square roots
+    /// count as [`ScalarClass::Div`], the rest (`abs`, `floor`, `ceil`, conversions) as ALU.
+    #[inline(always)]
+    fn s_fn<T, U>(self, class: ScalarClass, x: T, f: fn(T) -> U) -> U {
+        self.scalar_op(class);
+        f(x)
+    }
+    /// Scalar comparison feeding a branch: `a < b` ([`ScalarClass::Branch`]).
+    #[inline(always)]
+    fn s_lt<T: PartialOrd>(self, a: T, b: T) -> bool {
+        self.scalar_op(ScalarClass::Branch);
+        a < b
+    }
+    /// Scalar `a <= b` ([`ScalarClass::Branch`]).
+    #[inline(always)]
+    fn s_le<T: PartialOrd>(self, a: T, b: T) -> bool {
+        self.scalar_op(ScalarClass::Branch);
+        a <= b
+    }
+    /// A branch on `c` ([`ScalarClass::Branch`]): `c`.
+    #[inline(always)]
+    fn s_branch(self, c: bool) -> bool {
+        self.scalar_op(ScalarClass::Branch);
+        c
+    }
+    /// Scalar load of `data[i]` ([`ScalarClass::Mem`], its line in the task's stream).
+    #[inline(always)]
+    fn s_load<T: Copy>(self, data: &[T], i: usize) -> T {
+        self.scalar_op(ScalarClass::Mem);
+        let v = data[i];
+        self.scalar_touch(&data[i] as *const T as usize, core::mem::size_of::<T>(), false);
+        v
+    }
+    /// Scalar read of `*r` ([`ScalarClass::Mem`], its lines in the task's stream).
+    #[inline(always)]
+    fn s_read<T: Copy>(self, r: &T) -> T {
+        self.scalar_op(ScalarClass::Mem);
+        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), false);
+        *r
+    }
+    /// Count a scalar store of `*r`, just written ([`ScalarClass::Mem`], its lines in the stream).
+    #[inline(always)]
+    fn s_wrote<T>(self, r: &T) {
+        self.scalar_op(ScalarClass::Mem);
+        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
+    }
+    /// Scalar store `data[i] = v` ([`ScalarClass::Mem`], its line in the stream).
+    #[inline(always)]
+    fn s_store<T>(self, data: &mut [T], i: usize, v: T) {
+        data[i] = v;
+        self.s_wrote(&data[i]);
+    }
+    /// `v.push(x)`: a store of `x` (its lines in the stream), the length update and the capacity
+    /// test ([`ScalarClass::Mem`], [`ScalarClass::Alu`], [`ScalarClass::Branch`]).
+    #[inline(always)]
+    fn s_push<T>(self, v: &mut Vec<T>, x: T) {
+        self.scalar_op(ScalarClass::Branch);
+        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(ScalarClass::Mem);
+        v.push(x);
+        let last = v.last().expect("just pushed");
+        self.scalar_touch(last as *const T as usize, core::mem::size_of::<T>(), true);
     }
     /// Report that scalar code of the kernel read (`write == false`) or wrote the `bytes` bytes
     /// starting at address `addr`: a counting context appends their 64-byte lines to the task's

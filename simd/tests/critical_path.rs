@@ -124,5 +124,8 @@ fn retirement_is_in_order() {
     let rec = Recorder::with_lines(false);
     sism_simd::run_counting(&rec, DivideThenAdds);
     // The last add waits for the divide's slot, which retires at DIV: DIV + ARITH.
-    assert_eq!(rec.take_tasks()[0].counters.critical_path, latency::DIV + latency::ARITH);
+    assert_eq!(
+        rec.take_tasks()[0].counters.critical_path,
+        latency::DIV + latency::ARITH
+    );
 }

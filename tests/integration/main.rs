@@ -4,6 +4,7 @@ mod bad_input;
 mod beams;
 mod closed_forms;
 mod convergence;
+mod declared_work;
 mod docs;
 mod gaussian;
 mod golden;

@@ -62,6 +62,7 @@
 pub mod algorithms;
 pub mod bench;
 pub mod bvh;
+pub mod counted;
 pub mod error;
 pub mod exec;
 pub mod frame;

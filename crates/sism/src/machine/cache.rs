@@ -46,8 +46,6 @@ const MEMO: usize = 16;
 const NO_ID: u32 = u32::MAX;
 /// The host's base page size, bytes (the page faults and TLB reach of the model count these).
 pub const PAGE_BYTES: u64 = 4096;
-/// 64-byte lines per [`PAGE_BYTES`] page (a divisor of `PAGE_LINES`).
-const LINES_PER_4K: u64 = PAGE_BYTES / 64;
 
 /// Compact line ids in first-touch order (see the module documentation).
 ///
@@ -84,13 +82,6 @@ impl LineIds {
     /// The id of `line`, assigning the next free id on first touch.
     #[inline]
     pub fn id(&mut self, line: u64) -> u32 {
-        self.id_and_page(line).0
-    }
-
-    /// The id of `line` (as [`LineIds::id`]) and whether this access is the first touch of its
-    /// 4 KiB page ([`PAGE_BYTES`]) in the frame.
-    #[inline]
-    pub fn id_and_page(&mut self, line: u64) -> (u32, bool) {
         let page = line / PAGE_LINES;
         let m = (page as usize) % MEMO;
         let block = if self.memo[m].0 == page {
@@ -104,22 +95,16 @@ impl LineIds {
             self.memo[m] = (page, block);
             block
         };
-        let at = (block as u64 + line % PAGE_LINES) as usize;
-        if self.ids[at] != NO_ID {
-            return (self.ids[at], false);
+        let e = &mut self.ids[(block as u64 + line % PAGE_LINES) as usize];
+        if *e == NO_ID {
+            // Past 2^31 distinct lines (beyond any frame the records limits admit in practice) new
+            // lines share the last id: the caches then see them as one line, never a panic.
+            *e = self.next;
+            if self.next < (NO_ID >> 1) - 1 {
+                self.next += 1;
+            }
         }
-        // A new line: its 4 KiB page is new unless another of its lines has an id.
-        let first = at - (line % LINES_PER_4K) as usize;
-        let new_page = self.ids[first..first + LINES_PER_4K as usize]
-            .iter()
-            .all(|&e| e == NO_ID);
-        // Past 2^31 distinct lines (beyond any frame the records limits admit in practice) new
-        // lines share the last id: the caches then see them as one line, never a panic.
-        self.ids[at] = self.next;
-        if self.next < (NO_ID >> 1) - 1 {
-            self.next += 1;
-        }
-        (self.ids[at], new_page)
+        *e
     }
     /// Distinct lines seen so far.
     pub fn len(&self) -> usize {
@@ -285,16 +270,5 @@ mod tests {
         assert_eq!(ids.id(0x7fff_1234), 0);
         assert_eq!(ids.id(0x11), 2);
         assert_eq!(ids.len(), 3);
-    }
-
-    #[test]
-    fn first_touch_of_a_4k_page() {
-        let mut ids = LineIds::new();
-        // Lines 64..128 are one 4 KiB page; 128 starts the next.
-        assert_eq!(ids.id_and_page(64), (0, true));
-        assert_eq!(ids.id_and_page(127), (1, false));
-        assert_eq!(ids.id_and_page(64), (0, false));
-        assert_eq!(ids.id_and_page(128), (2, true));
-        assert_eq!(ids.id_and_page(63), (3, true));
     }
 }

@@ -70,6 +70,7 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("load_store_cycles", 0.01, 10_000.0),
     ("compress_cycles", 0.01, 10_000.0),
     ("scalar_cycles", 0.01, 10_000.0),
+    ("scalar_div_cycles", 0.01, 10_000.0),
     ("gather_cycles", 0.01, 10_000.0),
     ("memory_parallelism", 1.0, 64.0),
     ("task_overhead_cycles", 0.0, 10_000_000.0),
@@ -160,6 +161,12 @@ pub struct MachineConfig {
     /// `scalar_issue_per_clock` (0.01–10000). Larrabee: 1.
     #[serde(default = "one")]
     pub scalar_cycles: f64,
+    /// Cycles of one counted scalar divide or square root (0.01–10000), not divided by the issue
+    /// rate (the divider is not pipelined). Larrabee: 33, the P54C's double-precision `FDIV`
+    /// (Pentium Processor Family Developer's Manual; Larrabee's cores derive from it). Hosts: the
+    /// family's `divsd` latency (13 on Zen 4 and Ice Lake).
+    #[serde(default = "scalar_div_default")]
+    pub scalar_div_cycles: f64,
     /// Least cost of one gather or scatter instruction, cycles, whatever lines it touches
     /// (0.01–10000; the per-line cost is `gather_cycles_per_line`). Larrabee: 1. Host gathers cost
     /// about a cycle per lane, not per line.
@@ -223,6 +230,9 @@ pub struct MachineConfig {
 fn one() -> f64 {
     1.0
 }
+fn scalar_div_default() -> f64 {
+    13.0
+}
 fn sixteen() -> u32 {
     16
 }
@@ -277,6 +287,7 @@ impl MachineConfig {
             load_store_cycles: 1.0,
             compress_cycles: 1.0,
             scalar_cycles: 1.0,
+            scalar_div_cycles: 33.0,
             gather_cycles: 1.0,
             separate_ports: false,
             memory_parallelism: 1.0,
@@ -515,6 +526,7 @@ impl MachineConfig {
             "load_store_cycles" => self.load_store_cycles,
             "compress_cycles" => self.compress_cycles,
             "scalar_cycles" => self.scalar_cycles,
+            "scalar_div_cycles" => self.scalar_div_cycles,
             "gather_cycles" => self.gather_cycles,
             "memory_parallelism" => self.memory_parallelism,
             "task_overhead_cycles" => self.task_overhead_cycles,

@@ -12,7 +12,9 @@
 //!   issue cycles are `max(vector cycles, scalar cycles)`. Vector cycles: each vector ALU, FMA, load,
 //!   store and compress/expand instruction 1 slot (divided by the vector issue rate), each
 //!   transcendental `transcendental_cycles`, each gather or scatter `gather_cycles_per_line` per
-//!   distinct line it touched (at least 1). Scalar cycles: scalar and mask-register instructions.
+//!   distinct line it touched (at least 1). Scalar cycles: scalar and mask-register instructions
+//!   (declared `scalar` and the counted ALU, branch and memory classes), and `scalar_div_cycles`
+//!   per counted scalar divide or square root.
 //!   Per class the slot is scaled by a real cost (`vector_cycles`, `load_store_cycles`,
 //!   `compress_cycles`, `scalar_cycles`, all 1 on Larrabee), and a gather or scatter costs at least
 //!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores,
@@ -190,8 +192,15 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
     let vip = m.vector_issue_per_clock as f64;
     let gathers = c.transcendental.saturating_mul(m.transcendental_cycles as u64) as f64
         + (gs_lines as f64).max(gs_floor);
-    let scalar =
-        (c.scalar.saturating_add(c.mask) as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64).ceil();
+    let scalar_ops = c
+        .scalar
+        .saturating_add(c.mask)
+        .saturating_add(c.scalar_alu)
+        .saturating_add(c.scalar_branch)
+        .saturating_add(c.scalar_mem);
+    let scalar = (scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64
+        + c.scalar_div as f64 * m.scalar_div_cycles)
+        .ceil();
     let issue = if m.separate_ports {
         // Out of order: dependent operations wait for each other, so the task takes at least its
         // critical path, however wide the issue.
@@ -639,19 +648,24 @@ impl LineMapper {
     }
 
     /// [`LineMapper::map`] one id at a time.
+    ///
+    /// Pages are blocks of 64 consecutive first-touch ids ([`PAGE_BYTES`] of memory in the order
+    /// the frame first touched it), not of process addresses: where a buffer falls relative to the
+    /// host's page boundaries changes from run to run, and the counts must not.
     pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
-        let lines_per_page = PAGE_BYTES / 64;
+        let lines_per_page = (PAGE_BYTES / 64) as u32;
         let mut pages = TaskPages::default();
-        let mut last_page = u64::MAX;
+        let mut last_page = u32::MAX;
         self.task_pages.clear();
         task.lines.for_each(|line, write| {
-            let (id, new_page) = self.ids.id_and_page(line);
-            pages.fresh += (new_page && write) as u64;
-            let page = line / lines_per_page;
-            // Streams stay in a page for 64 lines: only a change of page is looked up.
+            let before = self.ids.len();
+            let id = self.ids.id(line);
+            // The first line of a page, touched first by a write: fresh memory.
+            pages.fresh += (self.ids.len() > before && id.is_multiple_of(lines_per_page) && write) as u64;
+            let page = id / lines_per_page;
             if page != last_page {
                 last_page = page;
-                self.task_pages.insert(page);
+                self.task_pages.insert(page as u64);
             }
             each(id << 1 | write as u32);
         });

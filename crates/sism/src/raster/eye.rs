@@ -155,18 +155,16 @@ fn write_receivers<S: Simd>(s: S, tile: &TileRaster<'_>, out: EyeTileOut<'_>) ->
             let base = TileBuf::index(bx, by);
             let slot = s.load_i(&buf.id[base..base + 16]);
             let hit = s.cmp_ge_i(slot, s.splat_i(0));
-            let rows_here = (th - by).min(4) as usize;
-            let cols_here = (tw - bx).min(4) as usize;
-            s.scalar_ops(4);
-            if !s.mask_any(hit) {
+            let rows_here = s.s_min(s.s_sub(th, by), 4) as usize;
+            let cols_here = s.s_min(s.s_sub(tw, bx), 4) as usize;
+            if !s.s_branch(s.mask_any(hit)) {
                 for r in 0..rows_here {
                     let row = (by as usize) + r;
                     for c in 0..cols_here {
-                        pixels[row][bx as usize + c].write(None);
-                        triangles[row][bx as usize + c].write(NO_TRIANGLE);
+                        s.s_wrote(pixels[row][bx as usize + c].write(None));
+                        s.s_wrote(triangles[row][bx as usize + c].write(NO_TRIANGLE));
                     }
                 }
-                s.scalar_ops(2 * (rows_here * cols_here) as u64);
                 continue;
             }
             // Pixel indices as floats (exact: sides are at most 32768).
@@ -222,20 +220,19 @@ fn write_receivers<S: Simd>(s: S, tile: &TileRaster<'_>, out: EyeTileOut<'_>) ->
                         &mut pixels[row][bx as usize + c],
                         &mut triangles[row][bx as usize + c],
                     );
-                    if hit.test(k) {
-                        px.write(Some(Receiver {
+                    if s.s_branch(hit.test(k)) {
+                        s.s_wrote(px.write(Some(Receiver {
                             position: Vec3::new(pos[0][k], pos[1][k], pos[2][k]),
                             normal: Vec3::new(nrm[0][k], nrm[1][k], nrm[2][k]),
-                        }));
-                        tri.write(original[k] as u32);
+                        })));
+                        s.s_wrote(tri.write(original[k] as u32));
                         covered += 1;
                     } else {
-                        px.write(None);
-                        tri.write(NO_TRIANGLE);
+                        s.s_wrote(px.write(None));
+                        s.s_wrote(tri.write(NO_TRIANGLE));
                     }
                 }
             }
-            s.scalar_ops(8 * (rows_here * cols_here) as u64);
         }
     }
     covered

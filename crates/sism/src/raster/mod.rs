@@ -29,7 +29,9 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
+
+use crate::counted;
 
 use crate::exec::{task_kind, Phase};
 use crate::scene::{CameraFrame, Scene};
@@ -273,15 +275,16 @@ impl Kernel for TileListsKernel<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::RASTER_TILE_LISTS);
-        s.scalar_read(self.pairs);
-        for &(tile, local) in self.pairs {
-            let slot = &mut self.fill[tile as usize];
-            self.lists[*slot as usize] = pack_id(self.chunk, local);
-            s.scalar_write(&self.lists[*slot as usize..*slot as usize + 1]);
-            *slot += 1;
+        // Per pair: its load, the tile's fill position read, the packed id (a shift and an or)
+        // stored, the position advanced.
+        for i in 0..self.pairs.len() {
+            let (tile, local) = s.s_load(self.pairs, i);
+            let slot = s.s_load(self.fill, tile as usize);
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Alu);
+            s.s_store(self.lists, slot as usize, pack_id(self.chunk, local));
+            s.s_store(self.fill, tile as usize, s.s_add(slot, 1));
         }
-        // Per pair: histogram increment, then read, store and increment of the fill position.
-        s.scalar_ops(6 * self.pairs.len() as u64);
         s.end_task();
     }
 }
@@ -343,55 +346,75 @@ impl FrontEnd {
     }
 
     /// View-space coordinates of world point `p`: (right, up, forward) components of `p - eye`.
-    #[inline]
-    fn view(&self, p: Vec3) -> Vec3 {
-        let d = p - self.eye;
-        Vec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    #[inline(always)]
+    fn view<S: Simd>(&self, s: S, p: Vec3) -> Vec3 {
+        let d = counted::sub(s, p, self.eye);
+        Vec3::new(
+            counted::dot(s, d, self.right),
+            counted::dot(s, d, self.up),
+            counted::dot(s, d, self.forward),
+        )
     }
 
     /// Screen position of a view-space point with `z > 0`, pixels.
-    #[inline]
-    fn project(&self, v: Vec3) -> [f32; 2] {
-        let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+    #[inline(always)]
+    fn project<S: Simd>(&self, s: S, v: Vec3) -> [f32; 2] {
+        let (x, y, z) = (wide(s, v.x), wide(s, v.y), wide(s, v.z));
         [
-            ((x / z) * self.inv_ta + 1.0) * (0.5 * self.w),
-            (1.0 - (y / z) * self.inv_t) * (0.5 * self.h),
+            narrow(
+                s,
+                s.s_mul(s.s_add(s.s_mul(s.s_div(x, z), self.inv_ta), 1.0), 0.5 * self.w),
+            ),
+            narrow(
+                s,
+                s.s_mul(s.s_sub(1.0, s.s_mul(s.s_div(y, z), self.inv_t)), 0.5 * self.h),
+            ),
         ]
-        .map(|c| c as f32)
     }
 
     /// Clips, projects and bins world triangle `p` (index `original`). Returns true when it produced
-    /// at least one screen triangle.
-    fn setup(&self, p: [Vec3; 3], original: u32, out: &mut FrontOut) -> bool {
-        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-        if normal == Vec3::ZERO {
+    /// at least one screen triangle. Every scalar operation is counted.
+    #[inline(always)]
+    fn setup<S: Simd>(&self, s: S, p: [Vec3; 3], original: u32, out: &mut FrontOut) -> bool {
+        let normal = counted::normalize_or_zero(
+            s,
+            counted::cross(s, counted::sub(s, p[1], p[0]), counted::sub(s, p[2], p[0])),
+        );
+        // Three compares and their branch.
+        s.scalar_op(ScalarClass::Branch);
+        s.scalar_op(ScalarClass::Branch);
+        if s.s_branch(normal == Vec3::ZERO) {
             return false; // zero area in the world: nothing to see, and no normal
         }
-        let v = p.map(|q| self.view(q));
-        let inside = v.map(|q| q.z > self.z_near);
+        let v = [self.view(s, p[0]), self.view(s, p[1]), self.view(s, p[2])];
+        let inside = [
+            s.s_lt(self.z_near, v[0].z),
+            s.s_lt(self.z_near, v[1].z),
+            s.s_lt(self.z_near, v[2].z),
+        ];
         let n_inside = inside.iter().filter(|&&b| b).count();
         // Sutherland–Hodgman against z > z_near; winding is preserved.
         let mut poly = [Vec3::ZERO; 4];
         let mut n = 0;
-        if n_inside == 0 {
+        if s.s_branch(n_inside == 0) {
             return false;
-        } else if n_inside == 3 {
+        } else if s.s_branch(n_inside == 3) {
             poly[..3].copy_from_slice(&v);
             n = 3;
         } else {
             out.triangles_clipped += 1;
             for k in 0..3 {
                 let (a, b) = (v[k], v[(k + 1) % 3]);
-                if inside[k] {
+                if s.s_branch(inside[k]) {
                     poly[n] = a;
                     n += 1;
                 }
-                if inside[k] != inside[(k + 1) % 3] {
+                if s.s_branch(inside[k] != inside[(k + 1) % 3]) {
                     // Always interpolate from the inside endpoint to the outside one, so the two
                     // triangles sharing this edge create the bit-identical vertex.
                     let (i, o) = if inside[k] { (a, b) } else { (b, a) };
-                    let t = (self.z_near - i.z) / (o.z - i.z);
-                    let mut q = i + (o - i) * t;
+                    let t = s.s_div(s.s_sub(self.z_near, i.z), s.s_sub(o.z, i.z));
+                    let mut q = counted::add(s, i, counted::scale(s, counted::sub(s, o, i), t));
                     q.z = self.z_near;
                     poly[n] = q;
                     n += 1;
@@ -400,45 +423,79 @@ impl FrontEnd {
         }
         let mut any = false;
         for k in 1..n - 1 {
-            any |= self.emit([poly[0], poly[k], poly[k + 1]], original, normal, p[0], out);
+            any |= self.emit(s, [poly[0], poly[k], poly[k + 1]], original, normal, p[0], out);
         }
         any
     }
 
     /// Projects one view-space triangle in front of the near plane, culls and bins it.
-    fn emit(&self, v: [Vec3; 3], original: u32, normal: Vec3, point: Vec3, out: &mut FrontOut) -> bool {
-        let s = v.map(|q| self.project(q));
-        let f = |i: usize, c: usize| s[i][c] as f64;
-        let area2 = (f(1, 0) - f(0, 0)) * (f(2, 1) - f(0, 1)) - (f(1, 1) - f(0, 1)) * (f(2, 0) - f(0, 0));
-        if area2 == 0.0 || !area2.is_finite() {
+    #[inline(always)]
+    fn emit<S: Simd>(
+        &self,
+        s: S,
+        v: [Vec3; 3],
+        original: u32,
+        normal: Vec3,
+        point: Vec3,
+        out: &mut FrontOut,
+    ) -> bool {
+        let sp = [
+            self.project(s, v[0]),
+            self.project(s, v[1]),
+            self.project(s, v[2]),
+        ];
+        let c64 = [
+            [wide(s, sp[0][0]), wide(s, sp[0][1])],
+            [wide(s, sp[1][0]), wide(s, sp[1][1])],
+            [wide(s, sp[2][0]), wide(s, sp[2][1])],
+        ];
+        let f = |i: usize, c: usize| c64[i][c];
+        let area2 = s.s_sub(
+            s.s_mul(s.s_sub(f(1, 0), f(0, 0)), s.s_sub(f(2, 1), f(0, 1))),
+            s.s_mul(s.s_sub(f(1, 1), f(0, 1)), s.s_sub(f(2, 0), f(0, 0))),
+        );
+        s.scalar_op(ScalarClass::Branch);
+        if s.s_branch(area2 == 0.0 || !area2.is_finite()) {
             return false; // zero area on screen (seen edge-on): covers no pixel centre consistently
         }
         // Pixel centres c + 0.5 inside [min, max], widened by a small margin so a centre the edge
         // functions place inside after rounding is never cut off by the box.
         let range = |c: usize, size: f64| -> Option<(u32, u32)> {
-            let lo = f(0, c).min(f(1, c)).min(f(2, c));
-            let hi = f(0, c).max(f(1, c)).max(f(2, c));
-            let margin = 1.0 / 64.0 + 1e-6 * lo.abs().max(hi.abs());
-            let first = (lo - 0.5 - margin).ceil().max(0.0);
-            let last = (hi - 0.5 + margin).floor().min(size - 1.0);
-            (first <= last).then_some((first as u32, last as u32))
+            let lo = s.s_min(s.s_min(f(0, c), f(1, c)), f(2, c));
+            let hi = s.s_max(s.s_max(f(0, c), f(1, c)), f(2, c));
+            let abs = |x: f64| s.s_fn(ScalarClass::Alu, x, f64::abs);
+            let margin = s.s_add(1.0 / 64.0, s.s_mul(1e-6, s.s_max(abs(lo), abs(hi))));
+            let first = s.s_max(
+                s.s_fn(ScalarClass::Alu, s.s_sub(s.s_sub(lo, 0.5), margin), f64::ceil),
+                0.0,
+            );
+            let last = s.s_min(
+                s.s_fn(ScalarClass::Alu, s.s_add(s.s_sub(hi, 0.5), margin), f64::floor),
+                s.s_sub(size, 1.0),
+            );
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Alu);
+            s.s_le(first, last).then_some((first as u32, last as u32))
         };
         let (Some((x0, x1)), Some((y0, y1))) = (range(0, self.w), range(1, self.h)) else {
             return false;
         };
         let index = out.tris.len() as u32;
-        out.tris.push(ScreenTri {
-            v: s,
-            z: v.map(|q| q.z),
-            positive: area2 > 0.0,
-            bbox: [x0, y0, x1, y1],
-            original,
-            normal,
-            plane_dist: normal.dot(point - self.eye),
-        });
+        s.s_push(
+            &mut out.tris,
+            ScreenTri {
+                v: sp,
+                z: [v[0].z, v[1].z, v[2].z],
+                positive: s.s_lt(0.0, area2),
+                bbox: [x0, y0, x1, y1],
+                original,
+                normal,
+                plane_dist: counted::dot(s, normal, counted::sub(s, point, self.eye)),
+            },
+        );
         for ty in y0 / TILE..=y1 / TILE {
             for tx in x0 / TILE..=x1 / TILE {
-                out.pairs.push((ty * self.tiles_x + tx, index));
+                s.s_push(&mut out.pairs, (s.s_add(s.s_mul(ty, self.tiles_x), tx), index));
             }
         }
         true
@@ -477,16 +534,19 @@ impl Kernel for FrontEndKernel<'_> {
             while g >= self.offsets[m + 1] {
                 m += 1;
             }
-            let corners = self.scene.meshes[m].corners(g - self.offsets[m]);
+            // The front end is scalar code, as on Larrabee's cores between vector kernels: every
+            // operation counted as it runs, the corners' loads with their lines.
+            let mesh = &self.scene.meshes[m];
+            let [a, b, c] = s.s_load(&mesh.triangles, g - self.offsets[m]);
+            let corners = [
+                s.s_load(&mesh.positions, a as usize),
+                s.s_load(&mesh.positions, b as usize),
+                s.s_load(&mesh.positions, c as usize),
+            ];
             out.triangles_in += 1;
-            let pairs_before = out.pairs.len();
-            if !self.front.setup(corners, g as u32, &mut out) {
+            if !self.front.setup(s, corners, g as u32, &mut out) {
                 out.triangles_culled += 1;
             }
-            // Scalar work (the front end is scalar code, as on Larrabee's cores between vector
-            // kernels): ~30 for fetch/transform/cull, ~40 per screen triangle, ~3 per bin entry.
-            s.scalar_ops(30 + 40 * (out.pairs.len() > pairs_before) as u64);
-            s.scalar_ops(3 * (out.pairs.len() - pairs_before) as u64);
         }
         s.end_task();
         out
@@ -544,51 +604,97 @@ struct EdgeSetup {
     eps: f32,
 }
 
-/// Edge `k` (from vertex `k` to `k + 1`) of `t` relative to tile origin `(ox, oy)`, set up in f64.
+/// Edge `k` (from vertex `k` to `k + 1`) of `t` relative to tile origin `(ox, oy)`, set up in f64,
+/// every scalar operation counted.
 #[inline(always)]
-fn edge_setup(t: &ScreenTri, k: usize, ox: f64, oy: f64) -> EdgeSetup {
+fn edge_setup<S: Simd>(s: S, t: &ScreenTri, k: usize, ox: f64, oy: f64) -> EdgeSetup {
     let (p, q) = (t.v[k], t.v[(k + 1) % 3]);
-    // Canonical order: the endpoint with the smaller (y, x) first.
-    let flip = (q[1], q[0]) < (p[1], p[0]);
+    // Canonical order: the endpoint with the smaller (y, x) first (two compares).
+    s.scalar_op(ScalarClass::Branch);
+    let flip = s.s_branch((q[1], q[0]) < (p[1], p[0]));
     let (a, b) = if flip { (q, p) } else { (p, q) };
-    let ex = b[0] as f64 - a[0] as f64;
-    let ey = b[1] as f64 - a[1] as f64;
-    let e = ex * (oy - a[1] as f64) - ey * (ox - a[0] as f64);
+    let (ax, ay) = (wide(s, a[0]), wide(s, a[1]));
+    let ex = s.s_sub(wide(s, b[0]), ax);
+    let ey = s.s_sub(wide(s, b[1]), ay);
+    let e = s.s_sub(s.s_mul(ex, s.s_sub(oy, ay)), s.s_mul(ey, s.s_sub(ox, ax)));
     // The triangle lies on the positive side of its edges when its area is positive; the
     // canonical flip negates. Negation commutes exactly with rounding and with fma.
     let inside_positive = t.positive != flip;
-    let sign = if inside_positive { 1.0 } else { -1.0 };
-    let (a32, b32, e32) = ((sign * -ey) as f32, (sign * ex) as f32, (sign * e) as f32);
+    let sign = if s.s_branch(inside_positive) { 1.0 } else { -1.0 };
+    let (a32, b32, e32) = (
+        narrow(s, s.s_mul(sign, neg(s, ey))),
+        narrow(s, s.s_mul(sign, ex)),
+        narrow(s, s.s_mul(sign, e)),
+    );
+    let abs = |x: f32| s.s_fn(ScalarClass::Alu, x, f32::abs);
+    let reach = s.s_mul(TILE as f32, s.s_add(abs(a32), abs(b32)));
     EdgeSetup {
         a: a32,
         b: b32,
         e: e32,
         inclusive: inside_positive,
-        eps: (e32.abs() + TILE as f32 * (a32.abs() + b32.abs())) * (1.0 / (1 << 20) as f32),
+        eps: s.s_mul(s.s_add(abs(e32), reach), 1.0 / (1 << 20) as f32),
     }
 }
 
-/// Edge functions and depth plane of `t` relative to tile origin `(ox, oy)` (pixels), in f64.
+/// `x as f64`, counted (a conversion).
 #[inline(always)]
-fn tile_setup(t: &ScreenTri, ox: f64, oy: f64) -> ([EdgeSetup; 3], [f32; 5]) {
+fn wide<S: Simd>(s: S, x: f32) -> f64 {
+    s.s_fn(ScalarClass::Alu, x, f64::from)
+}
+
+/// `x as f32`, counted (a conversion).
+#[inline(always)]
+fn narrow<S: Simd>(s: S, x: f64) -> f32 {
+    s.scalar_op(ScalarClass::Alu);
+    x as f32
+}
+
+/// `-x`, counted (a sign flip).
+#[inline(always)]
+fn neg<S: Simd>(s: S, x: f64) -> f64 {
+    s.scalar_op(ScalarClass::Alu);
+    -x
+}
+
+/// Edge functions and depth plane of `t` relative to tile origin `(ox, oy)` (pixels), in f64, every
+/// scalar operation counted.
+#[inline(always)]
+fn tile_setup<S: Simd>(s: S, t: &ScreenTri, ox: f64, oy: f64) -> ([EdgeSetup; 3], [f32; 5]) {
     let edges = [
-        edge_setup(t, 0, ox, oy),
-        edge_setup(t, 1, ox, oy),
-        edge_setup(t, 2, ox, oy),
+        edge_setup(s, t, 0, ox, oy),
+        edge_setup(s, t, 1, ox, oy),
+        edge_setup(s, t, 2, ox, oy),
     ];
     // 1/z is affine in screen space: solve its plane from the three vertices.
-    let iz = [1.0 / t.z[0] as f64, 1.0 / t.z[1] as f64, 1.0 / t.z[2] as f64];
-    let (x0, y0) = (t.v[0][0] as f64, t.v[0][1] as f64);
-    let (d1x, d1y) = (t.v[1][0] as f64 - x0, t.v[1][1] as f64 - y0);
-    let (d2x, d2y) = (t.v[2][0] as f64 - x0, t.v[2][1] as f64 - y0);
-    let det = d1x * d2y - d1y * d2x;
-    let (di1, di2) = (iz[1] - iz[0], iz[2] - iz[0]);
-    let gx = (di1 * d2y - di2 * d1y) / det;
-    let gy = (di2 * d1x - di1 * d2x) / det;
-    let d = iz[0] + gx * (ox - x0) + gy * (oy - y0);
-    let lo = iz[0].min(iz[1]).min(iz[2]);
-    let hi = iz[0].max(iz[1]).max(iz[2]);
-    (edges, [gx as f32, gy as f32, d as f32, lo as f32, hi as f32])
+    let iz = [
+        s.s_div(1.0, wide(s, t.z[0])),
+        s.s_div(1.0, wide(s, t.z[1])),
+        s.s_div(1.0, wide(s, t.z[2])),
+    ];
+    let (x0, y0) = (wide(s, t.v[0][0]), wide(s, t.v[0][1]));
+    let (d1x, d1y) = (s.s_sub(wide(s, t.v[1][0]), x0), s.s_sub(wide(s, t.v[1][1]), y0));
+    let (d2x, d2y) = (s.s_sub(wide(s, t.v[2][0]), x0), s.s_sub(wide(s, t.v[2][1]), y0));
+    let det = s.s_sub(s.s_mul(d1x, d2y), s.s_mul(d1y, d2x));
+    let (di1, di2) = (s.s_sub(iz[1], iz[0]), s.s_sub(iz[2], iz[0]));
+    let gx = s.s_div(s.s_sub(s.s_mul(di1, d2y), s.s_mul(di2, d1y)), det);
+    let gy = s.s_div(s.s_sub(s.s_mul(di2, d1x), s.s_mul(di1, d2x)), det);
+    let d = s.s_add(
+        s.s_add(iz[0], s.s_mul(gx, s.s_sub(ox, x0))),
+        s.s_mul(gy, s.s_sub(oy, y0)),
+    );
+    let lo = s.s_min(s.s_min(iz[0], iz[1]), iz[2]);
+    let hi = s.s_max(s.s_max(iz[0], iz[1]), iz[2]);
+    (
+        edges,
+        [
+            narrow(s, gx),
+            narrow(s, gy),
+            narrow(s, d),
+            narrow(s, lo),
+            narrow(s, hi),
+        ],
+    )
 }
 
 /// Rasterizes a tile's triangle list into a [`TileBuf`], then hands it to the view's resolve.
@@ -639,16 +745,17 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
         let blk_x = s.from_array_f(lanes(|k| ((k % 4) * 4) as f32 + 2.0));
         let blk_y = s.from_array_f(lanes(|k| ((k / 4) * 4) as f32 + 2.0));
         let mut table = TileTriangles::with_capacity(self.list.len());
-        for (slot, &id) in self.list.iter().enumerate() {
-            let t = self.tris.get(id);
-            let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(t, ox as f64, oy as f64);
-            table.push(t, gx, gy);
-            s.scalar_ops(60);
+        for slot in 0..self.list.len() {
+            // The list entry and the triangle it names (its lines in the task's stream).
+            let t = self.tris.get(s.s_load(self.list, slot));
+            let t = &s.s_read(t);
+            let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(s, t, ox as f64, oy as f64);
+            table.push(s, t, gx, gy);
             // Bounding box ∩ tile, tile-local inclusive pixels.
-            let x0 = t.bbox[0].max(ox) - ox;
-            let y0 = t.bbox[1].max(oy) - oy;
-            let x1 = t.bbox[2].min(ox + TILE - 1) - ox;
-            let y1 = t.bbox[3].min(oy + TILE - 1) - oy;
+            let x0 = s.s_sub(s.s_max(t.bbox[0], ox), ox);
+            let y0 = s.s_sub(s.s_max(t.bbox[1], oy), oy);
+            let x1 = s.s_sub(s.s_min(t.bbox[2], ox + TILE - 1), ox);
+            let y1 = s.s_sub(s.s_min(t.bbox[3], oy + TILE - 1), oy);
             let ev = [
                 splat_edge(s, &edges[0]),
                 splat_edge(s, &edges[1]),
@@ -656,38 +763,44 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
             ];
             // Level 1: the 16 sub-tiles; reject where an edge is negative at every pixel centre.
             let mut subs = grid_mask(x0 / SUB, x1 / SUB, y0 / SUB, y1 / SUB);
+            let reach = |e: &EdgeSetup, k: f32| {
+                let abs = |x: f32| s.s_fn(ScalarClass::Alu, x, f32::abs);
+                s.s_add(s.s_mul(k, s.s_add(abs(e.a), abs(e.b))), e.eps)
+            };
             for (e, &(a, b, c)) in edges.iter().zip(&ev) {
                 let v = s.fmadd(a, sub_x, s.fmadd(b, sub_y, c));
-                let reach = 7.5 * (e.a.abs() + e.b.abs()) + e.eps;
-                subs = s.mask_and(subs, s.cmp_ge_f(v, s.splat_f(-reach)));
+                subs = s.mask_and(subs, s.cmp_ge_f(v, s.splat_f(-reach(e, 7.5))));
             }
             for k in subs.iter() {
                 counts.subtiles_tested += 1;
-                let (sx, sy) = ((k as u32 % 4) * SUB, (k as u32 / 4) * SUB);
+                // Bit-scan, then the sub-tile's corner: shifts and masks.
+                s.scalar_op(ScalarClass::Branch);
+                let (sx, sy) = (s.s_mul(k as u32 % 4, SUB), s.s_mul(k as u32 / 4, SUB));
                 // Level 2: the 16 blocks of the sub-tile; also find blocks entirely inside. The
                 // sub-tile overlaps the box (level 1 started from the box's sub-tiles).
-                let bx0 = (x0.max(sx) - sx) / 4;
-                let bx1 = (x1.min(sx + SUB - 1) - sx) / 4;
-                let by0 = (y0.max(sy) - sy) / 4;
-                let by1 = (y1.min(sy + SUB - 1) - sy) / 4;
+                let bx0 = s.s_sub(s.s_max(x0, sx), sx) / 4;
+                let bx1 = s.s_sub(s.s_min(x1, sx + SUB - 1), sx) / 4;
+                let by0 = s.s_sub(s.s_max(y0, sy), sy) / 4;
+                let by1 = s.s_sub(s.s_min(y1, sy + SUB - 1), sy) / 4;
                 let mut blocks = grid_mask(bx0, bx1, by0, by1);
                 let mut full = blocks;
                 let cx = s.add_f(blk_x, s.splat_f(sx as f32));
                 let cy = s.add_f(blk_y, s.splat_f(sy as f32));
                 for (e, &(a, b, c)) in edges.iter().zip(&ev) {
                     let v = s.fmadd(a, cx, s.fmadd(b, cy, c));
-                    let reach = 1.5 * (e.a.abs() + e.b.abs()) + e.eps;
-                    blocks = s.mask_and(blocks, s.cmp_ge_f(v, s.splat_f(-reach)));
-                    full = s.mask_and(full, s.cmp_gt_f(v, s.splat_f(reach)));
+                    let r = reach(e, 1.5);
+                    blocks = s.mask_and(blocks, s.cmp_ge_f(v, s.splat_f(-r)));
+                    full = s.mask_and(full, s.cmp_gt_f(v, s.splat_f(r)));
                 }
-                s.scalar_ops(12);
                 for b in blocks.iter() {
-                    let bx = sx + (b as u32 % 4) * 4;
-                    let by = sy + (b as u32 / 4) * 4;
+                    // Bit-scan, the block's corner, the full test.
+                    s.scalar_op(ScalarClass::Branch);
+                    let bx = s.s_add(sx, (b as u32 % 4) * 4);
+                    let by = s.s_add(sy, (b as u32 / 4) * 4);
                     let dx = s.add_f(pix_x, s.splat_f(bx as f32));
                     let dy = s.add_f(pix_y, s.splat_f(by as f32));
                     counts.blocks_tested += 1;
-                    let inside = if full.test(b) {
+                    let inside = if s.s_branch(full.test(b)) {
                         counts.blocks_full += 1;
                         Mask16::ALL
                     } else {
@@ -704,7 +817,6 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                         }
                         m
                     };
-                    s.scalar_ops(6);
                     if !s.mask_any(inside) {
                         continue;
                     }
@@ -770,13 +882,13 @@ impl TileTriangles {
     }
 
     #[inline(always)]
-    fn push(&mut self, t: &ScreenTri, inv_z_dx: f32, inv_z_dy: f32) {
-        self.nx.push(t.normal.x);
-        self.ny.push(t.normal.y);
-        self.nz.push(t.normal.z);
-        self.plane_dist.push(t.plane_dist);
-        self.original.push(t.original as i32);
-        self.inv_z_dx.push(inv_z_dx);
-        self.inv_z_dy.push(inv_z_dy);
+    fn push<S: Simd>(&mut self, s: S, t: &ScreenTri, inv_z_dx: f32, inv_z_dy: f32) {
+        s.s_push(&mut self.nx, t.normal.x);
+        s.s_push(&mut self.ny, t.normal.y);
+        s.s_push(&mut self.nz, t.normal.z);
+        s.s_push(&mut self.plane_dist, t.plane_dist);
+        s.s_push(&mut self.original, t.original as i32);
+        s.s_push(&mut self.inv_z_dx, inv_z_dx);
+        s.s_push(&mut self.inv_z_dy, inv_z_dy);
     }
 }
