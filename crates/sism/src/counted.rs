@@ -54,6 +54,59 @@ pub fn normalize_or_zero<S: Simd>(s: S, a: Vec3) -> Vec3 {
     }
 }
 
+/// Counted 2-vector operations, glam's `Vec2` arithmetic in glam's order.
+pub mod v2 {
+    use glam::Vec2;
+    use sism_simd::{ScalarClass, Simd};
+
+    /// `a + b`.
+    #[inline(always)]
+    pub fn add<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
+        Vec2::new(s.s_add(a.x, b.x), s.s_add(a.y, b.y))
+    }
+
+    /// `a - b`.
+    #[inline(always)]
+    pub fn sub<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
+        Vec2::new(s.s_sub(a.x, b.x), s.s_sub(a.y, b.y))
+    }
+
+    /// `a * k`.
+    #[inline(always)]
+    pub fn scale<S: Simd>(s: S, a: Vec2, k: f32) -> Vec2 {
+        Vec2::new(s.s_mul(a.x, k), s.s_mul(a.y, k))
+    }
+
+    /// `a.min(b)` (glam's own, whose choice between equal zeros of opposite sign differs from
+    /// `f32::min`'s): two operations.
+    #[inline(always)]
+    pub fn min<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
+        s.scalar_op(ScalarClass::Alu);
+        s.scalar_op(ScalarClass::Alu);
+        a.min(b)
+    }
+
+    /// `a.max(b)` (glam's own): two operations.
+    #[inline(always)]
+    pub fn max<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
+        s.scalar_op(ScalarClass::Alu);
+        s.scalar_op(ScalarClass::Alu);
+        a.max(b)
+    }
+
+    /// `a.dot(b)`: `(a.x * b.x) + (a.y * b.y)`.
+    #[inline(always)]
+    pub fn dot<S: Simd>(s: S, a: Vec2, b: Vec2) -> f32 {
+        s.s_add(s.s_mul(a.x, b.x), s.s_mul(a.y, b.y))
+    }
+
+    /// `a.length()`: the square root of `a.dot(a)`.
+    #[inline(always)]
+    pub fn length<S: Simd>(s: S, a: Vec2) -> f32 {
+        s.s_fn(ScalarClass::Div, dot(s, a, a), f32::sqrt)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -78,6 +131,17 @@ mod tests {
                 assert!(same(cross(s, a, b), a.cross(b)), "{a} x {b}");
                 assert_eq!(dot(s, a, b).to_bits(), a.dot(b).to_bits());
                 assert!(same(scale(s, a, b.y), a * b.y));
+                let (a2, b2) = (a.truncate(), b.truncate());
+                let same2 = |x: glam::Vec2, y: glam::Vec2| {
+                    x.x.to_bits() == y.x.to_bits() && x.y.to_bits() == y.y.to_bits()
+                };
+                assert!(same2(v2::add(s, a2, b2), a2 + b2));
+                assert!(same2(v2::sub(s, a2, b2), a2 - b2));
+                assert!(same2(v2::scale(s, a2, b.z), a2 * b.z));
+                assert!(same2(v2::min(s, a2, b2), a2.min(b2)));
+                assert!(same2(v2::max(s, a2, b2), a2.max(b2)));
+                assert_eq!(v2::dot(s, a2, b2).to_bits(), a2.dot(b2).to_bits());
+                assert_eq!(v2::length(s, a2).to_bits(), a2.length().to_bits());
             }
         }
     }

@@ -76,7 +76,6 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("task_overhead_cycles", 0.0, 10_000_000.0),
     ("latency_scale", 0.0, 100.0),
     ("tlb_miss_cycles", 0.0, 10_000.0),
-    ("page_fault_cycles", 0.0, 10_000_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -208,13 +207,6 @@ pub struct MachineConfig {
     /// 30 (the walkers' measured cost with the page-walk caches at work).
     #[serde(default)]
     pub tlb_miss_cycles: f64,
-    /// Cycles of the first touch of a freshly allocated 4 KiB page: the operating system's page
-    /// fault, zeroing included (0–1e7). A page whose first access in the frame is a write is taken
-    /// to be fresh. Larrabee: 0 (assumption: the renderer allocates its buffers once and reuses
-    /// them, as a console-style renderer does). Hosts: fitted by `sism calibrate` on first touches
-    /// of fresh memory.
-    #[serde(default)]
-    pub page_fault_cycles: f64,
     /// A last-level cache shared by all cores, KB (0 = none, as on Larrabee, whose L2 subsets are the
     /// last level). An L2 miss looks it up before going to DRAM.
     #[serde(default)]
@@ -295,7 +287,6 @@ impl MachineConfig {
             latency_scale: 1.0,
             tlb_entries: 0,
             tlb_miss_cycles: 0.0,
-            page_fault_cycles: 0.0,
             l3_kb: 0,
             l3_ways: 16,
             l3_latency: 0,
@@ -532,7 +523,6 @@ impl MachineConfig {
             "task_overhead_cycles" => self.task_overhead_cycles,
             "latency_scale" => self.latency_scale,
             "tlb_miss_cycles" => self.tlb_miss_cycles,
-            "page_fault_cycles" => self.page_fault_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

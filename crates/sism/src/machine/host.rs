@@ -68,9 +68,6 @@ pub struct CpuFamily {
     pub barrier: u32,
     /// Second-level data TLB entries for 4 KiB pages (AMD's and Intel's optimisation guides).
     pub tlb_entries: u32,
-    /// First touch of a fresh 4 KiB page (a minor fault, zeroing included, in a VM), cycles; the
-    /// starting point `sism calibrate` fits.
-    pub page_fault: f64,
 }
 
 /// The family table. Zen 4 double-pumps 512-bit operations; Zen 5 and Intel's server cores have two
@@ -95,7 +92,6 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 4096,
-        page_fault: 5000.0,
     },
     CpuFamily {
         name: "zen4",
@@ -116,7 +112,6 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 3072,
-        page_fault: 5000.0,
     },
     CpuFamily {
         name: "sapphire-rapids",
@@ -137,7 +132,6 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 2048,
-        page_fault: 5000.0,
     },
     CpuFamily {
         name: "icelake-sp",
@@ -158,7 +152,6 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 1536,
-        page_fault: 5000.0,
     },
     CpuFamily {
         name: "generic-x86",
@@ -179,7 +172,6 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 1536,
-        page_fault: 5000.0,
     },
 ];
 
@@ -296,7 +288,6 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         tlb_entries: fam.tlb_entries,
         // A page walk with the page-walk caches at work (assumption, for every family).
         tlb_miss_cycles: 30.0,
-        page_fault_cycles: fam.page_fault,
         // The family's float add latency against the nominal one the records are measured in.
         latency_scale: fam.vector_latency / sism_simd::latency::ARITH as f64,
         l3_kb,

@@ -113,7 +113,10 @@ pub struct MemoryCounts {
     pub writebacks: u64,
     /// TLB misses: per task, distinct 4 KiB pages beyond `tlb_entries` (0 when not modelled).
     pub tlb_misses: u64,
-    /// First touches of freshly allocated 4 KiB pages ([`TaskPages::fresh`]).
+    /// 4 KiB pages first touched in the frame by a write ([`TaskPages::fresh`]): the page faults a
+    /// cold process would take. Not charged: a replayed frame is a steady-state frame, whose
+    /// memory earlier frames mapped (the binary's allocator, mimalloc, keeps freed pages; measured
+    /// on the host, warm frames take no page faults).
     pub page_faults: u64,
 }
 
@@ -398,10 +401,9 @@ impl<'a> Machine<'a> {
         };
         mem.tlb_misses += tlb_misses;
         mem.page_faults += pages.fresh;
-        // Page walks and page faults: the kernel's and the walker's time, neither overlapped with
-        // other misses nor hidden by other threads.
-        let paging =
-            (tlb_misses as f64 * m.tlb_miss_cycles + pages.fresh as f64 * m.page_fault_cycles).ceil() as u64;
+        // Page walks: the walker's time, neither overlapped with other misses nor hidden by other
+        // threads.
+        let paging = (tlb_misses as f64 * m.tlb_miss_cycles).ceil() as u64;
         let stall = (tally.l1_hits.saturating_mul(l1_lat))
             .saturating_add(tally.l2_hits.saturating_mul(l2_lat))
             .saturating_add(tally.l3_hits.saturating_mul(m.l3_latency as u64))
@@ -610,9 +612,9 @@ pub fn simulate_decoded(
 pub struct TaskPages {
     /// Distinct pages the task touched (its TLB footprint).
     pub distinct: u64,
-    /// Pages first touched in the frame by this task, with a write: taken to be freshly allocated
-    /// memory, whose first touch is a page fault on the host (data a frame only reads, such as the
-    /// scene, was allocated before it).
+    /// Pages first touched in the frame by this task, with a write: memory the frame allocated,
+    /// whose first touch would be a page fault in a cold process (data a frame only reads, such as
+    /// the scene, was allocated before it). Counted, not charged ([`MemoryCounts::page_faults`]).
     pub fresh: u64,
 }
 

@@ -13,9 +13,10 @@ use std::ops::Range;
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{as_i32_mut, Kernel, Simd};
+use sism_simd::{as_i32_mut, Kernel, ScalarClass, Simd};
 
 use super::light_view::LightFace;
+use crate::counted::v2;
 use crate::exec::{task_kind, Phase};
 use crate::stats::{percentiles, Dist};
 
@@ -121,6 +122,17 @@ impl FaceGrid {
         s.clamp(0, slices as i64 - 1) as u32
     }
 
+    /// [`FaceGrid::slice_of`] with its operations counted by `s`: the divide, the logarithm (a
+    /// library call of some twenty operations, counted as a divide-class operation), the max,
+    /// multiply, conversion and clamp.
+    #[inline(always)]
+    pub fn slice_of_counted<S: Simd>(&self, s: S, z: f32, slices: u32) -> u32 {
+        let r = s.s_max(s.s_div(z, self.z_min), 1.0);
+        let l = s.s_fn(ScalarClass::Div, r, f32::ln);
+        let k = s.s_fn(ScalarClass::Alu, s.s_mul(l, self.slice_scale), |x: f32| x as i64);
+        s.s_min(s.s_max(k, 0), slices as i64 - 1) as u32
+    }
+
     /// Near-plane distance of the face for clipping occluders, world units: a tiny fraction of the
     /// nearest sample's depth (geometry nearer than that to the light centre is inside the light).
     #[inline]
@@ -145,14 +157,25 @@ impl FaceGrid {
 
     /// Column range (inclusive lower, exclusive upper) covered by the image-plane box `[lo, hi]`,
     /// clamped to the grid; empty when the box misses it.
-    #[inline]
-    pub fn column_range(&self, lo: Vec2, hi: Vec2) -> (UVec2, UVec2) {
-        let a = ((lo - self.uv_min) / self.cell_size).floor();
-        let b = ((hi - self.uv_min) / self.cell_size).floor() + Vec2::ONE;
-        let max = self.columns.as_vec2();
-        let a = a.clamp(Vec2::ZERO, max);
-        let b = b.clamp(Vec2::ZERO, max);
-        (a.as_uvec2(), b.as_uvec2())
+    /// Its operations are counted by `s` (a native context counts nothing).
+    #[inline(always)]
+    pub fn column_range<S: Simd>(&self, s: S, lo: Vec2, hi: Vec2) -> (UVec2, UVec2) {
+        // glam's `((p - uv_min) / cell_size).floor()`, `+ 1`, `.clamp(0, columns)`, `.as_uvec2()`.
+        let cell =
+            |p: f32, o: f32, size: f32| s.s_fn(ScalarClass::Alu, s.s_div(s.s_sub(p, o), size), f32::floor);
+        let max_x = s.s_fn(ScalarClass::Alu, self.columns.x, |c| c as f32);
+        let max_y = s.s_fn(ScalarClass::Alu, self.columns.y, |c| c as f32);
+        let clamp = |v: f32, m: f32| s.s_fn(ScalarClass::Alu, s.s_min(s.s_max(v, 0.0), m), |x| x as u32);
+        let (o, size) = (self.uv_min, self.cell_size);
+        let a = UVec2::new(
+            clamp(cell(lo.x, o.x, size.x), max_x),
+            clamp(cell(lo.y, o.y, size.y), max_y),
+        );
+        let b = UVec2::new(
+            clamp(s.s_add(cell(hi.x, o.x, size.x), 1.0), max_x),
+            clamp(s.s_add(cell(hi.y, o.y, size.y), 1.0), max_y),
+        );
+        (a, b)
     }
 }
 
@@ -250,11 +273,31 @@ impl Grid {
     /// `first_slice` to the last column's end. Columns of one bin row are contiguous in memory, so this
     /// is one range; the nearer slices of the columns in between are included (work for lanes, never
     /// a missed sample).
-    #[inline]
-    pub fn row_span(&self, bin: usize, c0: UVec2, c1: UVec2, row: u32, first_slice: u32) -> (usize, usize) {
-        let start = self.column_samples(bin, UVec2::new(c0.x, row), first_slice).start;
-        let end = self.column_samples(bin, UVec2::new(c1.x - 1, row), 0).end;
-        (start, end)
+    ///
+    /// Its operations are counted by `s` (a native context counts nothing): the two columns' first
+    /// cells ([`Grid::column_first_cell`]'s arithmetic) and the two loads of cell starts.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn row_span<S: Simd>(
+        &self,
+        s: S,
+        bin: usize,
+        c0: UVec2,
+        c1: UVec2,
+        row: u32,
+        first_slice: u32,
+    ) -> (usize, usize) {
+        let b = &self.bins[bin];
+        let (columns, slices) = (self.params.bin_columns, self.params.slices);
+        let base = s.s_mul(bin, self.cells_per_bin());
+        let row_first = s.s_mul(s.s_sub(row, s.s_read(&b.column0.y)), columns);
+        let cell = |column: u32| {
+            let local = s.s_add(row_first, s.s_sub(column, s.s_read(&b.column0.x)));
+            s.s_add(base, s.s_mul(local, slices) as usize)
+        };
+        let start = s.s_load(&self.cell_start, s.s_add(cell(c0.x), first_slice as usize));
+        let end = s.s_load(&self.cell_start, s.s_add(cell(s.s_sub(c1.x, 1)), slices as usize));
+        (start as usize, end as usize)
     }
 
     /// Disjoint mutable pieces of `data` (one entry per sorted sample) for the sample ranges `ranges`
@@ -425,18 +468,18 @@ pub fn build(phase: &mut Phase, faces: &[LightFace], samples: &[SampleIn], param
             }),
     );
 
-    // Prefix sum, bin-major then chunk: each chunk's first write position in each bin.
+    // Prefix sum, bin-major then chunk: each chunk's first write position in each bin (a task of
+    // the scatter step, so its work is counted with it).
     let mut bin_start = vec![0u32; n_bins + 1];
     let mut write_pos: Vec<Vec<u32>> = vec![vec![0; n_bins]; chunk_counts.len()];
-    let mut running = 0u32;
-    for bin in 0..n_bins {
-        bin_start[bin] = running;
-        for (k, counts) in chunk_counts.iter().enumerate() {
-            write_pos[k][bin] = running;
-            running += counts[bin];
-        }
-    }
-    bin_start[n_bins] = running;
+    phase.run(
+        "scatter",
+        BinPrefix {
+            chunk_counts: &chunk_counts,
+            bin_start: &mut bin_start,
+            write_pos: &mut write_pos,
+        },
+    );
 
     // Pass 2: scatter sample indices to their bin's range (vector fetch-add on the write positions).
     // The chunks share the output, so the host runs them one after another.
@@ -586,13 +629,14 @@ impl Kernel for FaceBounds<'_> {
         let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
         let (mut z_min, mut z_max) = (f32::INFINITY, 0.0f32);
         for smp in self.samples {
-            lo = lo.min(smp.uv);
-            hi = hi.max(smp.uv);
-            z_min = z_min.min(smp.depth);
-            z_max = z_max.max(smp.depth);
+            let (uv, z) = (s.s_read(&smp.uv), s.s_read(&smp.depth));
+            s.scalar_op(ScalarClass::Mem); // uv is two loads
+            lo = v2::min(s, lo, uv);
+            hi = v2::max(s, hi, uv);
+            z_min = s.s_min(z_min, z);
+            z_max = s.s_max(z_max, z);
+            s.scalar_op(ScalarClass::Branch); // the loop
         }
-        s.scalar_read(self.samples);
-        s.scalar_ops(8 * self.samples.len() as u64);
         s.end_task();
         (lo, hi, z_min, z_max)
     }
@@ -615,30 +659,30 @@ impl Kernel for CellSort<'_> {
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::GRID_CELL_SORT);
         let mut counts = vec![0u32; self.starts.len()];
-        for &i in self.members {
-            counts[self.cell_of[i as usize] as usize] += 1;
+        s.scalar_write(&counts); // zeroed
+        for k in 0..self.members.len() {
+            let i = s.s_load(self.members, k);
+            let c = s.s_load(self.cell_of, i as usize) as usize;
+            let n = s.s_load(&counts, c);
+            s.s_store(&mut counts, c, s.s_add(n, 1));
+            s.scalar_op(ScalarClass::Branch); // the loop
         }
         let mut running = 0u32;
-        for (start, c) in self.starts.iter_mut().zip(counts.iter_mut()) {
-            *start = self.bin_first + running;
-            let n = *c;
-            *c = running;
-            running += n;
+        for c in 0..self.starts.len() {
+            s.s_store(self.starts, c, s.s_add(self.bin_first, running));
+            let n = s.s_load(&counts, c);
+            s.s_store(&mut counts, c, running);
+            running = s.s_add(running, n);
+            s.scalar_op(ScalarClass::Branch);
         }
-        for &i in self.members {
-            let c = &mut counts[self.cell_of[i as usize] as usize];
-            self.out[*c as usize] = i;
-            *c += 1;
+        for k in 0..self.members.len() {
+            let i = s.s_load(self.members, k);
+            let c = s.s_load(self.cell_of, i as usize) as usize;
+            let slot = s.s_load(&counts, c);
+            s.s_store(self.out, slot as usize, i);
+            s.s_store(&mut counts, c, s.s_add(slot, 1));
+            s.scalar_op(ScalarClass::Branch);
         }
-        // Memory: the members twice, their cells gathered twice, the cell starts, the output.
-        s.scalar_read(self.members);
-        for &i in self.members {
-            s.scalar_read(&self.cell_of[i as usize..i as usize + 1]);
-        }
-        s.scalar_write(self.starts);
-        s.scalar_write(self.out);
-        // Per member: two cell loads and two increments, the store (~8); per cell the prefix (~4).
-        s.scalar_ops(8 * self.members.len() as u64 + 4 * self.starts.len() as u64);
         s.end_task();
     }
 }
@@ -658,20 +702,19 @@ impl Kernel for Gather<'_> {
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::GRID_GATHER);
         let [x, y, z, u, v, depth, cos_theta] = self.out;
-        for (k, &i) in self.index.iter().enumerate() {
-            let smp = &self.samples[i as usize];
-            (x[k], y[k], z[k]) = (smp.q.x, smp.q.y, smp.q.z);
-            (u[k], v[k], depth[k]) = (smp.uv.x, smp.uv.y, smp.depth);
-            (self.pixel[k], cos_theta[k]) = (smp.pixel, smp.cos_theta);
-            s.scalar_read(std::slice::from_ref(smp));
+        for k in 0..self.index.len() {
+            let smp = &self.samples[s.s_load(self.index, k) as usize];
+            // Eight loads of the sample's fields and eight stores, counted on their lines.
+            s.s_store(x, k, s.s_read(&smp.q.x));
+            s.s_store(y, k, s.s_read(&smp.q.y));
+            s.s_store(z, k, s.s_read(&smp.q.z));
+            s.s_store(u, k, s.s_read(&smp.uv.x));
+            s.s_store(v, k, s.s_read(&smp.uv.y));
+            s.s_store(depth, k, s.s_read(&smp.depth));
+            s.s_store(self.pixel, k, s.s_read(&smp.pixel));
+            s.s_store(cos_theta, k, s.s_read(&smp.cos_theta));
+            s.scalar_op(ScalarClass::Branch);
         }
-        s.scalar_read(self.index);
-        for out in [&*x, &*y, &*z, &*u, &*v, &*depth, &*cos_theta] {
-            s.scalar_write(out);
-        }
-        s.scalar_write(self.pixel);
-        // Per sample: the index, eight loads and eight stores (~18).
-        s.scalar_ops(18 * self.index.len() as u64);
         s.end_task();
     }
 }
@@ -694,30 +737,44 @@ impl Kernel for BinDescriptors<'_> {
     fn run<S: Simd>(self, s: S) -> Vec<Bin> {
         s.begin_task(task_kind::GRID_BINS);
         let mut out = Vec::with_capacity(self.coords.len());
-        let mut samples = 0usize;
-        for (k, &(f, column0)) in self.coords.iter().enumerate() {
+        for k in 0..self.coords.len() {
+            let (f, column0) = s.s_load(self.coords, k);
             let index = self.first + k;
             let g = &self.faces[f as usize];
-            let range = self.bin_start[index]..self.bin_start[index + 1];
+            let range = s.s_load(self.bin_start, index)..s.s_load(self.bin_start, index + 1);
             let depths = &self.depth[range.start as usize..range.end as usize];
-            let (z_min, z_max) = depths
-                .iter()
-                .fold((f32::INFINITY, 0.0f32), |(lo, hi), &z| (lo.min(z), hi.max(z)));
-            s.scalar_read(depths);
-            samples += depths.len();
-            out.push(Bin {
-                face: f,
-                column0,
-                uv_min: g.uv_min + column0.as_vec2() * g.cell_size,
-                uv_max: g.uv_min + (column0 + UVec2::splat(self.bin_columns)).as_vec2() * g.cell_size,
-                samples: range,
-                z_min: if depths.is_empty() { 0.0 } else { z_min },
-                z_max,
-            });
+            let (mut z_min, mut z_max) = (f32::INFINITY, 0.0f32);
+            for i in 0..depths.len() {
+                let z = s.s_load(depths, i);
+                z_min = s.s_min(z_min, z);
+                z_max = s.s_max(z_max, z);
+                s.scalar_op(ScalarClass::Branch);
+            }
+            let column1 = column0 + UVec2::splat(self.bin_columns);
+            // Per corner: the face's origin and cell size loaded, two conversions, two multiply-adds.
+            let corner = |c: UVec2| {
+                let (o, size) = (s.s_read(&g.uv_min), s.s_read(&g.cell_size));
+                let (x, y) = (
+                    s.s_fn(ScalarClass::Alu, c.x, |v| v as f32),
+                    s.s_fn(ScalarClass::Alu, c.y, |v| v as f32),
+                );
+                Vec2::new(s.s_add(o.x, s.s_mul(x, size.x)), s.s_add(o.y, s.s_mul(y, size.y)))
+            };
+            let (uv_min, uv_max) = (corner(column0), corner(column1));
+            s.scalar_op(ScalarClass::Branch); // empty bin
+            s.s_push(
+                &mut out,
+                Bin {
+                    face: f,
+                    column0,
+                    uv_min,
+                    uv_max,
+                    samples: range,
+                    z_min: if depths.is_empty() { 0.0 } else { z_min },
+                    z_max,
+                },
+            );
         }
-        // Per bin the descriptor (~16); per sample the min and max (~3).
-        s.scalar_ops(16 * self.coords.len() as u64 + 3 * samples as u64);
-        s.scalar_write(&out);
         s.end_task();
         out
     }
@@ -759,20 +816,25 @@ impl Kernel for Classify<'_> {
             let mut first_bin = [0i32; 16];
             let mut slice = [0i32; 16];
             for (lane, smp) in chunk.iter().enumerate() {
-                let g = &self.faces[smp.face as usize];
-                u[lane] = smp.uv.x;
-                v[lane] = smp.uv.y;
-                umin[lane] = g.uv_min.x;
-                vmin[lane] = g.uv_min.y;
-                inv_cu[lane] = 1.0 / g.cell_size.x;
-                inv_cv[lane] = 1.0 / g.cell_size.y;
-                gu[lane] = g.columns.x as i32;
-                gv[lane] = g.columns.y as i32;
-                bins_u[lane] = g.bins.x as i32;
-                first_bin[lane] = g.first_bin as i32;
-                slice[lane] = g.slice_of(smp.depth, slices) as i32;
+                let g = &self.faces[s.s_read(&smp.face) as usize];
+                // Loads into the lane arrays (a load and a store each, the store counted), two
+                // reciprocals, the slice.
+                let put = |dst: &mut [f32; 16], x: &f32| s.s_store(dst, lane, s.s_read(x));
+                put(&mut u, &smp.uv.x);
+                put(&mut v, &smp.uv.y);
+                put(&mut umin, &g.uv_min.x);
+                put(&mut vmin, &g.uv_min.y);
+                let put_i = |dst: &mut [i32; 16], x: &u32| s.s_store(dst, lane, s.s_read(x) as i32);
+                put_i(&mut gu, &g.columns.x);
+                put_i(&mut gv, &g.columns.y);
+                put_i(&mut bins_u, &g.bins.x);
+                put_i(&mut first_bin, &g.first_bin);
+                s.s_store(&mut inv_cu, lane, s.s_div(1.0, s.s_read(&g.cell_size.x)));
+                s.s_store(&mut inv_cv, lane, s.s_div(1.0, s.s_read(&g.cell_size.y)));
+                let depth = s.s_read(&smp.depth);
+                s.s_store(&mut slice, lane, g.slice_of_counted(s, depth, slices) as i32);
+                s.scalar_op(ScalarClass::Branch);
             }
-            s.scalar_ops(12 * chunk.len() as u64);
             let m = s.mask_first_n(chunk.len());
             let zero = s.splat_i(0);
             let cu = s.floor_i(s.mul_f(
@@ -816,6 +878,34 @@ fn div_rem<S: Simd>(s: S, x: S::I32, d: i32) -> (S::I32, S::I32) {
     (q, s.sub_i(x, s.mul_i(q, s.splat_i(d))))
 }
 
+/// The bins x chunks prefix sum of the chunks' bin histograms: each bin's first sample
+/// (`bin_start`, one more than the bins) and each chunk's first write position in each bin.
+struct BinPrefix<'a> {
+    chunk_counts: &'a [Vec<u32>],
+    bin_start: &'a mut [u32],
+    write_pos: &'a mut [Vec<u32>],
+}
+
+impl Kernel for BinPrefix<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::GRID_SCATTER);
+        let n_bins = self.bin_start.len() - 1;
+        let mut running = 0u32;
+        for bin in 0..n_bins {
+            s.s_store(self.bin_start, bin, running);
+            for (counts, pos) in self.chunk_counts.iter().zip(self.write_pos.iter_mut()) {
+                s.s_store(pos, bin, running);
+                running = s.s_add(running, s.s_load(counts, bin));
+                s.scalar_op(ScalarClass::Branch);
+            }
+        }
+        s.s_store(self.bin_start, n_bins, running);
+        s.end_task();
+    }
+}
+
 /// Pass-2 kernel: each sample's position in its bin's range, by vector fetch-add on the chunk's write
 /// positions (lanes of the same bin get consecutive slots, in lane order); scatter of the indices.
 struct ScatterToBins<'a> {
@@ -830,8 +920,6 @@ impl Kernel for ScatterToBins<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::GRID_SCATTER);
-        // The chunk's column of the bins x chunks prefix sum, before the scatter.
-        s.scalar_ops(3 * self.write_pos.len() as u64);
         let pos = as_i32_mut(self.write_pos);
         let out = as_i32_mut(self.out);
         let one = s.splat_i(1);

@@ -130,7 +130,7 @@ impl Kernel for OcclusionBin<'_> {
                     };
                     let mut n = 0usize;
                     for row in tri.c0.y..tri.c1.y {
-                        let (start, stop) = grid.row_span(bin, tri.c0, tri.c1, row, tri.first_slice);
+                        let (start, stop) = grid.row_span(s, bin, tri.c0, tri.c1, row, tri.first_slice);
                         let mut i = start;
                         while i < stop {
                             let m = s.mask_first_n(stop - i);

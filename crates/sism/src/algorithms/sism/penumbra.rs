@@ -12,13 +12,14 @@
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::binning::{bin_items, BinItems, BinLists};
 use super::grid::{FaceGrid, Grid};
 use super::occlusion::{edge_term, EdgeRecord};
 use super::silhouettes::Silhouettes;
 use super::{Occluders, SismLight, StageInputs};
+use crate::counted::{self, v2};
 use crate::exec::{task_kind, Phase};
 use crate::stats::{percentiles, Dist};
 
@@ -105,18 +106,27 @@ struct QuadGeometry {
     z_near: f32,
 }
 
-#[inline]
-fn quad_geometry(g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
-    let a = g.face.to_face(Vec3::from(e.a));
-    let b = g.face.to_face(Vec3::from(e.b));
+/// Its operations are counted by `s`.
+#[inline(always)]
+fn quad_geometry<S: Simd>(s: S, g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
+    let to_face = |q: Vec3| {
+        let f = &g.face;
+        Vec3::new(
+            counted::dot(s, q, f.right),
+            counted::dot(s, q, f.up),
+            counted::dot(s, q, f.axis),
+        )
+    };
+    let a = to_face(Vec3::from(s.s_read(&e.a)));
+    let b = to_face(Vec3::from(s.s_read(&e.b)));
     // Clipped to the face's near plane, as the umbra clips its triangles.
-    let near = g.near_plane();
+    let near = s.s_mul(s.s_read(&g.z_min), 1e-4); // FaceGrid::near_plane
     let clip = |p: Vec3, q: Vec3| -> Option<Vec3> {
-        if p.z >= near {
+        if s.s_le(near, p.z) {
             Some(p)
-        } else if q.z >= near {
-            let t = (near - p.z) / (q.z - p.z);
-            let mut x = p + (q - p) * t;
+        } else if s.s_le(near, q.z) {
+            let t = s.s_div(s.s_sub(near, p.z), s.s_sub(q.z, p.z));
+            let mut x = counted::add(s, p, counted::scale(s, counted::sub(s, q, p), t));
             x.z = near;
             Some(x)
         } else {
@@ -125,54 +135,61 @@ fn quad_geometry(g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
     };
     let (ca, cb) = (clip(a, b)?, clip(b, a)?);
     Some(QuadGeometry {
-        a: Vec2::new(ca.x / ca.z, ca.y / ca.z),
-        b: Vec2::new(cb.x / cb.z, cb.y / cb.z),
-        z_near: ca.z.min(cb.z),
+        a: Vec2::new(s.s_div(ca.x, ca.z), s.s_div(ca.y, ca.z)),
+        b: Vec2::new(s.s_div(cb.x, cb.z), s.s_div(cb.y, cb.z)),
+        z_near: s.s_min(ca.z, cb.z),
     })
 }
 
 /// Distance from segment `a b` to the axis-aligned rectangle `[lo, hi]` (0 when they touch).
-pub fn segment_rect_distance(a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> f32 {
-    let point_rect = |p: Vec2| (lo - p).max(p - hi).max(Vec2::ZERO).length();
+/// Its operations are counted by `s` (a native context counts nothing).
+#[inline(always)]
+pub fn segment_rect_distance<S: Simd>(s: S, a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> f32 {
+    let point_rect = |p: Vec2| {
+        let outside = v2::max(s, v2::max(s, v2::sub(s, lo, p), v2::sub(s, p, hi)), Vec2::ZERO);
+        v2::length(s, outside)
+    };
+    let d = v2::sub(s, b, a);
+    let len2 = v2::dot(s, d, d);
     let point_segment = |p: Vec2| {
-        let d = b - a;
-        let t = if d.length_squared() > 0.0 {
-            ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        let t = if s.s_lt(0.0, len2) {
+            let t = s.s_div(v2::dot(s, v2::sub(s, p, a), d), len2);
+            s.scalar_op(ScalarClass::Alu); // the clamp's two bounds
+            s.s_fn(ScalarClass::Alu, t, |t: f32| t.clamp(0.0, 1.0))
         } else {
             0.0
         };
-        (a + d * t - p).length()
+        v2::length(s, v2::sub(s, v2::add(s, a, v2::scale(s, d, t)), p))
     };
     // Liang–Barsky: does the segment cross the rectangle?
-    let d = b - a;
     let (mut t0, mut t1) = (0.0f32, 1.0f32);
     let mut crosses = true;
     for (p, q) in [
-        (-d.x, a.x - lo.x),
-        (d.x, hi.x - a.x),
-        (-d.y, a.y - lo.y),
-        (d.y, hi.y - a.y),
+        (-d.x, s.s_sub(a.x, lo.x)),
+        (d.x, s.s_sub(hi.x, a.x)),
+        (-d.y, s.s_sub(a.y, lo.y)),
+        (d.y, s.s_sub(hi.y, a.y)),
     ] {
-        if p == 0.0 {
-            if q < 0.0 {
+        if s.s_branch(p == 0.0) {
+            if s.s_lt(q, 0.0) {
                 crosses = false;
             }
         } else {
-            let r = q / p;
-            if p < 0.0 {
-                t0 = t0.max(r);
+            let r = s.s_div(q, p);
+            if s.s_lt(p, 0.0) {
+                t0 = s.s_max(t0, r);
             } else {
-                t1 = t1.min(r);
+                t1 = s.s_min(t1, r);
             }
         }
     }
-    if crosses && t0 <= t1 {
+    if s.s_branch(crosses) && s.s_le(t0, t1) {
         return 0.0;
     }
     let corners = [lo, Vec2::new(hi.x, lo.y), hi, Vec2::new(lo.x, hi.y)];
-    let mut best = point_rect(a).min(point_rect(b));
+    let mut best = s.s_min(point_rect(a), point_rect(b));
     for c in corners {
-        best = best.min(point_segment(c));
+        best = s.s_min(best, point_segment(c));
     }
     best
 }
@@ -211,40 +228,45 @@ impl BinItems for QuadBinner<'_> {
         let b = grid.params.bin_columns;
         let edge = &self.edges[e as usize];
         s.scalar_read(std::slice::from_ref(edge));
-        let pairs_before = out.len();
-        for (f, g) in grid.faces.iter().enumerate().filter(|(_, g)| g.samples > 0) {
+        for (f, g) in grid.faces.iter().enumerate() {
+            if !s.s_lt(0, s.s_read(&g.samples)) {
+                continue;
+            }
             counts.quads += 1;
-            // Two endpoints into the face, the near clip, the projection and the width (~40).
-            s.scalar_ops(40);
-            let r = self.light.face_radius(f);
-            let Some(qg) = quad_geometry(g, edge).filter(|qg| qg.z_near < g.z_max) else {
+            let r = s.s_mul(s.s_read(&self.light.radius), s.s_load(&self.light.widen, f)); // face_radius
+            let Some(qg) = quad_geometry(s, g, edge).filter(|qg| s.s_lt(qg.z_near, g.z_max)) else {
                 counts.culled_face += 1;
                 continue;
             };
-            let w = r * (1.0 / qg.z_near - 1.0 / g.z_max);
-            let (c0, c1) = g.column_range(qg.a.min(qg.b) - w, qg.a.max(qg.b) + w);
-            if c0.x >= c1.x || c0.y >= c1.y {
+            let inv_near = s.s_div(1.0, qg.z_near);
+            let w = s.s_mul(r, s.s_sub(inv_near, s.s_div(1.0, g.z_max)));
+            let w2 = Vec2::splat(w);
+            let (c0, c1) = g.column_range(
+                s,
+                v2::sub(s, v2::min(s, qg.a, qg.b), w2),
+                v2::add(s, v2::max(s, qg.a, qg.b), w2),
+            );
+            if s.s_le(c1.x, c0.x) || s.s_le(c1.y, c0.y) {
                 counts.culled_face += 1;
                 continue;
             }
             for bin in g.bins_of_columns(b, c0, c1) {
                 let bn = &grid.bins[bin];
-                s.scalar_ops(4);
-                if bn.samples.is_empty() {
+                s.scalar_op(ScalarClass::Branch); // the bins loop
+                if s.s_le(s.s_read(&bn.samples.end), bn.samples.start) {
                     continue;
                 }
                 counts.before += 1;
-                // The bin's refined width and the segment-rectangle distance (~30).
-                s.scalar_ops(30);
-                let w_bin = r * (1.0 / qg.z_near - 1.0 / bn.z_max);
-                if w_bin <= 0.0 || segment_rect_distance(qg.a, qg.b, bn.uv_min, bn.uv_max) > w_bin {
+                let w_bin = s.s_mul(r, s.s_sub(inv_near, s.s_div(1.0, s.s_read(&bn.z_max))));
+                if s.s_le(w_bin, 0.0)
+                    || s.s_lt(w_bin, segment_rect_distance(s, qg.a, qg.b, bn.uv_min, bn.uv_max))
+                {
                     counts.culled_bin += 1;
                     continue;
                 }
-                out.push((bin as u32, e));
+                s.s_push(out, (bin as u32, e));
             }
         }
-        s.scalar_ops(2 * (out.len() - pairs_before) as u64);
     }
 }
 
@@ -358,25 +380,52 @@ pub struct QuadInBin {
 }
 
 /// Prepares edge `e`'s quad for bin `bin`; `None` when it misses.
-#[inline]
-pub fn quad_in_bin(grid: &Grid, bin: usize, e: &EdgeRecord, light: &SismLight) -> Option<QuadInBin> {
+///
+/// Its operations are counted by `s`.
+#[inline(always)]
+pub fn quad_in_bin<S: Simd>(
+    s: S,
+    grid: &Grid,
+    bin: usize,
+    e: &EdgeRecord,
+    light: &SismLight,
+) -> Option<QuadInBin> {
     let bn = &grid.bins[bin];
-    let g = &grid.faces[bn.face as usize];
-    let qg = quad_geometry(g, e)?;
-    let r = light.wedge_radius(bn.face as usize);
-    let inv_near = 1.0 / qg.z_near;
-    let w_bin = r * (inv_near - 1.0 / bn.z_max);
-    let (c0, c1) = g.column_range(qg.a.min(qg.b) - w_bin, qg.a.max(qg.b) + w_bin);
-    let bin_c1 = (bn.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
-    let (c0, c1) = (c0.max(bn.column0), c1.min(bin_c1));
-    let ab = qg.b - qg.a;
-    (c0.x < c1.x && c0.y < c1.y).then(|| QuadInBin {
+    let face = s.s_read(&bn.face) as usize;
+    let g = &grid.faces[face];
+    let qg = quad_geometry(s, g, e)?;
+    // SismLight::wedge_radius: the radius, widened, with the slack.
+    let r = s.s_mul(
+        s.s_mul(s.s_read(&light.radius), s.s_load(&light.widen, face)),
+        1.0 + WEDGE_SLACK,
+    );
+    let inv_near = s.s_div(1.0, qg.z_near);
+    let w_bin = s.s_mul(r, s.s_sub(inv_near, s.s_div(1.0, s.s_read(&bn.z_max))));
+    let w2 = Vec2::splat(w_bin);
+    let (c0, c1) = g.column_range(
+        s,
+        v2::sub(s, v2::min(s, qg.a, qg.b), w2),
+        v2::add(s, v2::max(s, qg.a, qg.b), w2),
+    );
+    let column0 = s.s_read(&bn.column0);
+    let bin_c1 = UVec2::new(
+        s.s_min(s.s_add(column0.x, grid.params.bin_columns), g.columns.x),
+        s.s_min(s.s_add(column0.y, grid.params.bin_columns), g.columns.y),
+    );
+    let c0 = UVec2::new(s.s_max(c0.x, column0.x), s.s_max(c0.y, column0.y));
+    let c1 = UVec2::new(s.s_min(c1.x, bin_c1.x), s.s_min(c1.y, bin_c1.y));
+    let ab = v2::sub(s, qg.b, qg.a);
+    if !(s.s_lt(c0.x, c1.x) && s.s_lt(c0.y, c1.y)) {
+        return None;
+    }
+    let len2 = v2::dot(s, ab, ab);
+    Some(QuadInBin {
         c0,
         c1,
         a: qg.a,
         b: qg.b,
-        inv_len2: if ab.length_squared() > 0.0 {
-            1.0 / ab.length_squared()
+        inv_len2: if s.s_lt(0.0, len2) {
+            s.s_div(1.0, len2)
         } else {
             0.0
         },
@@ -461,24 +510,27 @@ pub fn select_in_wedge<S: Simd>(
     let mut n = 0usize;
     for row in q.c0.y.max(part.rows.start)..q.c1.y.min(part.rows.end) {
         // Wedge test for the row (Section 2.5): where the wedge enters it in depth.
-        let lo = g.uv_min + UVec2::new(q.c0.x, row).as_vec2() * g.cell_size;
-        let hi = g.uv_min + UVec2::new(q.c1.x, row + 1).as_vec2() * g.cell_size;
-        let d = segment_rect_distance(q.a, q.b, lo, hi);
-        let (first, end) = grid.row_span(bin, q.c0, q.c1, row, 0);
-        let inv_enter = q.inv_near - d / q.r;
-        s.scalar_ops(40);
-        if inv_enter <= 1.0 / bn.z_max {
+        // `uv_min + column.as_vec2() * cell_size` for the row's two corners.
+        let corner = |x: u32, y: u32| {
+            let f = |c: u32| s.s_fn(ScalarClass::Alu, c, |c| c as f32);
+            Vec2::new(
+                s.s_add(g.uv_min.x, s.s_mul(f(x), g.cell_size.x)),
+                s.s_add(g.uv_min.y, s.s_mul(f(y), g.cell_size.y)),
+            )
+        };
+        let lo = corner(q.c0.x, row);
+        let hi = corner(q.c1.x, s.s_add(row, 1));
+        let d = segment_rect_distance(s, q.a, q.b, lo, hi);
+        let (first, end) = grid.row_span(s, bin, q.c0, q.c1, row, 0);
+        let inv_enter = s.s_sub(q.inv_near, s.s_div(d, q.r));
+        s.scalar_op(ScalarClass::Branch); // the rows loop
+        if s.s_le(inv_enter, s.s_div(1.0, bn.z_max)) {
             culled[0] += 1;
             culled[1] += (end - first) as u64;
             continue;
         }
-        let (start, _) = grid.row_span(
-            bin,
-            q.c0,
-            q.c1,
-            row,
-            g.slice_of(1.0 / inv_enter, grid.params.slices),
-        );
+        let slice = g.slice_of_counted(s, s.s_div(1.0, inv_enter), grid.params.slices);
+        let (start, _) = grid.row_span(s, bin, q.c0, q.c1, row, slice);
         culled[1] += (start - first) as u64;
         let mut i = start;
         while i < end {
@@ -563,7 +615,7 @@ impl<'a> WedgeScan<'a> {
     /// quad misses the part.
     #[inline(always)]
     pub fn select<S: Simd>(&mut self, s: S, edge: &EdgeRecord) -> Option<usize> {
-        let q = quad_in_bin(self.grid, self.part.bin, edge, self.light)?;
+        let q = quad_in_bin(s, self.grid, self.part.bin, edge, self.light)?;
         let n = select_in_wedge(
             s,
             self.grid,
@@ -584,8 +636,6 @@ impl<'a> WedgeScan<'a> {
     /// calls (measured: `sism-sampled`'s light points 7× slower on AVX-512).
     #[inline(always)]
     pub fn quad<S: Simd>(&mut self, s: S, edge: &EdgeRecord) -> Option<&[i32]> {
-        // Preparing the quad for the part (~60).
-        s.scalar_ops(60);
         let n = self.select(s, edge)?;
         Some(&self.selected[..n])
     }
@@ -696,7 +746,14 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
             (bn.column0.x + grid.params.bin_columns).min(g.columns.x),
         );
         for row in whole.rows.clone() {
-            let (start, end) = grid.row_span(bin, UVec2::new(c0, row), UVec2::new(c1, row + 1), row, 0);
+            let (start, end) = grid.row_span(
+                sism_simd::Portable,
+                bin,
+                UVec2::new(c0, row),
+                UVec2::new(c1, row + 1),
+                row,
+                0,
+            );
             if start < end {
                 parts.push(BinPart {
                     bin,
@@ -736,18 +793,45 @@ mod tests {
     fn segment_rect_distance_cases() {
         let (lo, hi) = (Vec2::ZERO, Vec2::ONE);
         assert_eq!(
-            segment_rect_distance(Vec2::new(-1.0, 0.5), Vec2::new(2.0, 0.5), lo, hi),
+            segment_rect_distance(
+                sism_simd::Portable,
+                Vec2::new(-1.0, 0.5),
+                Vec2::new(2.0, 0.5),
+                lo,
+                hi
+            ),
             0.0
         );
         assert!(
-            (segment_rect_distance(Vec2::new(2.0, -1.0), Vec2::new(2.0, 3.0), lo, hi) - 1.0).abs() < 1e-6
+            (segment_rect_distance(
+                sism_simd::Portable,
+                Vec2::new(2.0, -1.0),
+                Vec2::new(2.0, 3.0),
+                lo,
+                hi
+            ) - 1.0)
+                .abs()
+                < 1e-6
         );
         assert!(
-            (segment_rect_distance(Vec2::new(3.0, 3.0), Vec2::new(4.0, 4.0), lo, hi) - 8f32.sqrt()).abs()
+            (segment_rect_distance(
+                sism_simd::Portable,
+                Vec2::new(3.0, 3.0),
+                Vec2::new(4.0, 4.0),
+                lo,
+                hi
+            ) - 8f32.sqrt())
+            .abs()
                 < 1e-5
         );
         assert_eq!(
-            segment_rect_distance(Vec2::new(0.5, 0.5), Vec2::new(0.6, 0.6), lo, hi),
+            segment_rect_distance(
+                sism_simd::Portable,
+                Vec2::new(0.5, 0.5),
+                Vec2::new(0.6, 0.6),
+                lo,
+                hi
+            ),
             0.0
         );
     }

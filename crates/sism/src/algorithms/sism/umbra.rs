@@ -137,7 +137,7 @@ impl BinItems for TriangleBinner<'_> {
                 counts.face_culled += 1;
                 continue;
             };
-            let (c0, c1) = g.column_range(lo, hi);
+            let (c0, c1) = g.column_range(s, lo, hi);
             if z_near >= g.z_max || c0.x >= c1.x || c0.y >= c1.y {
                 counts.face_culled += 1;
                 continue;
@@ -254,7 +254,7 @@ pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<Triangl
     let b = &grid.bins[bin];
     let g = &grid.faces[b.face as usize];
     let (lo, hi, z_near) = face_bounds(&g.face, q, g.near_plane())?;
-    let (c0, c1) = g.column_range(lo, hi);
+    let (c0, c1) = g.column_range(sism_simd::Portable, lo, hi);
     let bin_c1 = (b.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
     let (c0, c1) = (c0.max(b.column0), c1.min(bin_c1));
     let n = (q[1] - q[0]).cross(q[2] - q[0]);
@@ -334,7 +334,7 @@ impl Kernel for UmbraBin<'_> {
                 continue;
             };
             for row in tri.c0.y..tri.c1.y {
-                let (start, end) = grid.row_span(self.bin, tri.c0, tri.c1, row, tri.first_slice);
+                let (start, end) = grid.row_span(s, self.bin, tri.c0, tri.c1, row, tri.first_slice);
                 let mut i = start;
                 while i < end {
                     let m = s.mask_first_n(end - i);
