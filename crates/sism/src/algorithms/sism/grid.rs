@@ -116,17 +116,12 @@ pub struct FaceGrid {
 impl FaceGrid {
     /// Depth slice of depth `z`, in `0..slices`. Monotonic in `z`, so every sample in a slice below
     /// `slice_of(z)` is nearer than `z`: skipping those slices is conservative.
-    #[inline]
-    pub fn slice_of(&self, z: f32, slices: u32) -> u32 {
-        let s = ((z / self.z_min).max(1.0).ln() * self.slice_scale) as i64;
-        s.clamp(0, slices as i64 - 1) as u32
-    }
-
-    /// [`FaceGrid::slice_of`] with its operations counted by `s`: the divide, the logarithm (a
-    /// library call of some twenty operations, counted as a divide-class operation), the max,
-    /// multiply, conversion and clamp.
+    ///
+    /// Its operations are counted by `s` (a native context counts nothing): the divide, the
+    /// logarithm (a library call of some twenty operations, counted as a divide-class operation),
+    /// the max, multiply, conversion and clamp.
     #[inline(always)]
-    pub fn slice_of_counted<S: Simd>(&self, s: S, z: f32, slices: u32) -> u32 {
+    pub fn slice_of<S: Simd>(&self, s: S, z: f32, slices: u32) -> u32 {
         let r = s.s_max(s.s_div(z, self.z_min), 1.0);
         let l = s.s_fn(ScalarClass::Div, r, f32::ln);
         let k = s.s_fn(ScalarClass::Alu, s.s_mul(l, self.slice_scale), |x: f32| x as i64);
@@ -135,9 +130,10 @@ impl FaceGrid {
 
     /// Near-plane distance of the face for clipping occluders, world units: a tiny fraction of the
     /// nearest sample's depth (geometry nearer than that to the light centre is inside the light).
-    #[inline]
-    pub fn near_plane(&self) -> f32 {
-        self.z_min * 1e-4
+    /// Its multiply is counted by `s`.
+    #[inline(always)]
+    pub fn near_plane<S: Simd>(&self, s: S) -> f32 {
+        s.s_mul(self.z_min, 1e-4)
     }
 
     /// Bins of this face overlapped by the column range `[c0, c1)`, as global bin indices.
@@ -242,21 +238,17 @@ impl Grid {
         (self.params.bin_columns * self.params.bin_columns * self.params.slices) as usize
     }
 
-    /// Index of the first cell of column `(cu, cv)` (in the bin's face grid) of bin `bin`.
-    #[inline]
-    pub fn column_first_cell(&self, bin: usize, column: UVec2) -> usize {
+    /// Index of the first cell of column `(cu, cv)` (in the bin's face grid) of bin `bin`. Its
+    /// operations are counted by `s`.
+    #[inline(always)]
+    pub fn column_first_cell<S: Simd>(&self, s: S, bin: usize, column: UVec2) -> usize {
         let b = &self.bins[bin];
-        let local = column - b.column0;
-        bin * self.cells_per_bin()
-            + ((local.y * self.params.bin_columns + local.x) * self.params.slices) as usize
-    }
-
-    /// Sample range of a column from slice `first_slice` to its farthest slice.
-    #[inline]
-    pub fn column_samples(&self, bin: usize, column: UVec2, first_slice: u32) -> Range<usize> {
-        let c = self.column_first_cell(bin, column);
-        let s = self.params.slices as usize;
-        self.cell_start[c + first_slice as usize] as usize..self.cell_start[c + s] as usize
+        let row = s.s_mul(s.s_sub(column.y, s.s_read(&b.column0.y)), self.params.bin_columns);
+        let local = s.s_add(row, s.s_sub(column.x, s.s_read(&b.column0.x)));
+        s.s_add(
+            s.s_mul(bin, self.cells_per_bin()),
+            s.s_mul(local, self.params.slices) as usize,
+        )
     }
 
     /// Number of cells holding at least one sample.
@@ -275,7 +267,7 @@ impl Grid {
     /// a missed sample).
     ///
     /// Its operations are counted by `s` (a native context counts nothing): the two columns' first
-    /// cells ([`Grid::column_first_cell`]'s arithmetic) and the two loads of cell starts.
+    /// cells ([`Grid::column_first_cell`]) and the two loads of cell starts.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn row_span<S: Simd>(
@@ -287,16 +279,10 @@ impl Grid {
         row: u32,
         first_slice: u32,
     ) -> (usize, usize) {
-        let b = &self.bins[bin];
-        let (columns, slices) = (self.params.bin_columns, self.params.slices);
-        let base = s.s_mul(bin, self.cells_per_bin());
-        let row_first = s.s_mul(s.s_sub(row, s.s_read(&b.column0.y)), columns);
-        let cell = |column: u32| {
-            let local = s.s_add(row_first, s.s_sub(column, s.s_read(&b.column0.x)));
-            s.s_add(base, s.s_mul(local, slices) as usize)
-        };
-        let start = s.s_load(&self.cell_start, s.s_add(cell(c0.x), first_slice as usize));
-        let end = s.s_load(&self.cell_start, s.s_add(cell(s.s_sub(c1.x, 1)), slices as usize));
+        let first = self.column_first_cell(s, bin, UVec2::new(c0.x, row));
+        let last = self.column_first_cell(s, bin, UVec2::new(s.s_sub(c1.x, 1), row));
+        let start = s.s_load(&self.cell_start, s.s_add(first, first_slice as usize));
+        let end = s.s_load(&self.cell_start, s.s_add(last, self.params.slices as usize));
         (start as usize, end as usize)
     }
 
@@ -832,7 +818,7 @@ impl Kernel for Classify<'_> {
                 s.s_store(&mut inv_cu, lane, s.s_div(1.0, s.s_read(&g.cell_size.x)));
                 s.s_store(&mut inv_cv, lane, s.s_div(1.0, s.s_read(&g.cell_size.y)));
                 let depth = s.s_read(&smp.depth);
-                s.s_store(&mut slice, lane, g.slice_of_counted(s, depth, slices) as i32);
+                s.s_store(&mut slice, lane, g.slice_of(s, depth, slices) as i32);
                 s.scalar_op(ScalarClass::Branch);
             }
             let m = s.mask_first_n(chunk.len());

@@ -89,17 +89,19 @@ impl SismLight {
     }
 
     /// `r' = r · widen[face]`: the quad half-width's scale in face `face`, as binning uses it.
-    #[inline]
-    pub fn face_radius(&self, face: usize) -> f32 {
-        self.radius * self.widen[face]
+    /// Its operations are counted by `s`.
+    #[inline(always)]
+    pub fn face_radius<S: sism_simd::Simd>(&self, s: S, face: usize) -> f32 {
+        s.s_mul(s.s_read(&self.radius), s.s_load(&self.widen, face))
     }
 
     /// `r'` with [`penumbra::WEDGE_SLACK`] for f32 rounding, as the per-sample wedge test uses it.
     /// (Binning uses [`SismLight::face_radius`] without the slack; both are kept as they were when
     /// the images were validated, so renders stay bit-identical.)
-    #[inline]
-    pub fn wedge_radius(&self, face: usize) -> f32 {
-        self.radius * self.widen[face] * (1.0 + penumbra::WEDGE_SLACK)
+    /// Its operations are counted by `s`.
+    #[inline(always)]
+    pub fn wedge_radius<S: sism_simd::Simd>(&self, s: S, face: usize) -> f32 {
+        s.s_mul(self.face_radius(s, face), 1.0 + penumbra::WEDGE_SLACK)
     }
 }
 

@@ -120,7 +120,7 @@ fn quad_geometry<S: Simd>(s: S, g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeom
     let a = to_face(Vec3::from(s.s_read(&e.a)));
     let b = to_face(Vec3::from(s.s_read(&e.b)));
     // Clipped to the face's near plane, as the umbra clips its triangles.
-    let near = s.s_mul(s.s_read(&g.z_min), 1e-4); // FaceGrid::near_plane
+    let near = g.near_plane(s);
     let clip = |p: Vec3, q: Vec3| -> Option<Vec3> {
         if s.s_le(near, p.z) {
             Some(p)
@@ -233,7 +233,7 @@ impl BinItems for QuadBinner<'_> {
                 continue;
             }
             counts.quads += 1;
-            let r = s.s_mul(s.s_read(&self.light.radius), s.s_load(&self.light.widen, f)); // face_radius
+            let r = self.light.face_radius(s, f);
             let Some(qg) = quad_geometry(s, g, edge).filter(|qg| s.s_lt(qg.z_near, g.z_max)) else {
                 counts.culled_face += 1;
                 continue;
@@ -394,11 +394,7 @@ pub fn quad_in_bin<S: Simd>(
     let face = s.s_read(&bn.face) as usize;
     let g = &grid.faces[face];
     let qg = quad_geometry(s, g, e)?;
-    // SismLight::wedge_radius: the radius, widened, with the slack.
-    let r = s.s_mul(
-        s.s_mul(s.s_read(&light.radius), s.s_load(&light.widen, face)),
-        1.0 + WEDGE_SLACK,
-    );
+    let r = light.wedge_radius(s, face);
     let inv_near = s.s_div(1.0, qg.z_near);
     let w_bin = s.s_mul(r, s.s_sub(inv_near, s.s_div(1.0, s.s_read(&bn.z_max))));
     let w2 = Vec2::splat(w_bin);
@@ -446,7 +442,7 @@ pub fn quad_in_bin<S: Simd>(
 #[inline(always)]
 pub fn sample_wedge_radii<S: Simd>(s: S, grid: &Grid, part: &BinPart, light: &SismLight) -> Vec<f32> {
     let face = grid.bins[part.bin].face as usize;
-    let rv = s.splat_f(light.wedge_radius(face));
+    let rv = s.splat_f(light.wedge_radius(sism_simd::Portable, face));
     let r = s.splat_f(light.radius);
     let slack = s.splat_f(1.0 + WEDGE_SLACK);
     let smp = &grid.samples;
@@ -529,7 +525,7 @@ pub fn select_in_wedge<S: Simd>(
             culled[1] += (end - first) as u64;
             continue;
         }
-        let slice = g.slice_of_counted(s, s.s_div(1.0, inv_enter), grid.params.slices);
+        let slice = g.slice_of(s, s.s_div(1.0, inv_enter), grid.params.slices);
         let (start, _) = grid.row_span(s, bin, q.c0, q.c1, row, slice);
         culled[1] += (start - first) as u64;
         let mut i = start;

@@ -133,7 +133,7 @@ impl BinItems for TriangleBinner<'_> {
         for g in grid.faces.iter().filter(|g| g.samples > 0) {
             // Three corners into the face, the near clip and the bounds (~45), the column range (~12).
             s.scalar_ops(57);
-            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, g.near_plane()) else {
+            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, g.near_plane(s)) else {
                 counts.face_culled += 1;
                 continue;
             };
@@ -253,7 +253,7 @@ pub struct TriangleInBin {
 pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<TriangleInBin> {
     let b = &grid.bins[bin];
     let g = &grid.faces[b.face as usize];
-    let (lo, hi, z_near) = face_bounds(&g.face, q, g.near_plane())?;
+    let (lo, hi, z_near) = face_bounds(&g.face, q, g.near_plane(sism_simd::Portable))?;
     let (c0, c1) = g.column_range(sism_simd::Portable, lo, hi);
     let bin_c1 = (b.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
     let (c0, c1) = (c0.max(b.column0), c1.min(bin_c1));
@@ -263,7 +263,7 @@ pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<Triangl
     (c0.x < c1.x && c0.y < c1.y && k != 0.0).then(|| TriangleInBin {
         c0,
         c1,
-        first_slice: g.slice_of(z_near, grid.params.slices),
+        first_slice: g.slice_of(sism_simd::Portable, z_near, grid.params.slices),
         edge_planes: [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])],
         n,
         k,
