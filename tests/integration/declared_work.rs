@@ -11,7 +11,7 @@ const DECLARED: &[(&str, usize)] = &[
     ("algorithms/gaussian.rs", 1),
     ("algorithms/multi_sample/adaptive.rs", 4),
     ("algorithms/multi_sample/mod.rs", 1),
-    ("algorithms/rbsm/mod.rs", 2),
+    ("algorithms/rbsm/mod.rs", 1),
     ("algorithms/shadow_map/depth_map.rs", 1),
     ("algorithms/shadow_map/lookup.rs", 1),
     ("algorithms/sism/binning.rs", 1),

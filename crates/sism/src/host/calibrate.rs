@@ -14,9 +14,12 @@
 //! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains the kernel reports with
 //! `scalar_ops`), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
 //! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
-//! `l2_latency`, `l3_latency` and `dram_latency_ns` (streaming loads over arrays that live in L2,
-//! in the shared cache, in DRAM: the effective cost of a line miss as a streaming kernel sees it, with
-//! the prefetchers at work, with `memory_parallelism` held at [`FIT_PARALLELISM`]),
+//! `l2_latency`, `l3_latency` and `dram_latency_ns` (loads of random lines of arrays that live in
+//! L2, in the shared cache, in DRAM: what a miss no prefetcher covers costs, independent misses
+//! overlapping with `memory_parallelism` held at [`FIT_PARALLELISM`]), `stream_l2_cycles`,
+//! `stream_l3_cycles` and `stream_dram_cycles` (streaming loads over the same arrays: what a
+//! line costs once the prefetchers run ahead; the memory benchmarks' counted runs are replayed
+//! after a counted warm-up run, as their native runs are timed warm),
 //! `task_overhead_cycles` and `barrier_cycles` (empty tasks through the frame's own task runner on
 //! all host threads, as frames run them). The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
 //! gathers from L2 and DRAM, streaming stores) are not fitted: their residuals show how well
@@ -58,12 +61,18 @@ pub enum Fits {
     Gather,
     /// `atomic_cycles`, by 16-lane fetch-adds.
     Atomic,
-    /// `l2_latency`, by streaming loads over an array that lives in L2.
+    /// `l2_latency`, by loads of random lines of an array that lives in L2.
     L2,
-    /// `l3_latency`, by streaming loads over an array that lives in the shared cache.
+    /// `l3_latency`, by loads of random lines of an array that lives in the shared cache.
     L3,
-    /// `dram_latency_ns`, by streaming loads over an array that lives in DRAM.
+    /// `dram_latency_ns`, by loads of random lines of an array that lives in DRAM.
     Dram,
+    /// `stream_l2_cycles`, by streaming loads over an array that lives in L2.
+    StreamL2,
+    /// `stream_l3_cycles`, by streaming loads over an array that lives in the shared cache.
+    StreamL3,
+    /// `stream_dram_cycles`, by streaming loads over an array that lives in DRAM.
+    StreamDram,
     /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
@@ -97,6 +106,9 @@ enum Kind {
     Divide {
         iters: usize,
     },
+    ScalarDivide {
+        iters: usize,
+    },
     /// Gathers (or scatters) from a table of `table` floats, each touching `lines` distinct lines.
     Gather {
         table_kb: Level,
@@ -114,6 +126,12 @@ enum Kind {
         bytes: usize,
     },
     Compress {
+        count: usize,
+    },
+    /// `count` 16-lane loads, each of one random line of an array of the level's size, on four
+    /// independent accumulators (a prefetcher cannot follow them).
+    Random {
+        level: Level,
         count: usize,
     },
     /// `passes` copies of an L1-resident array into another.
@@ -203,6 +221,12 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Divide { iters: 50_000 },
     },
     Bench {
+        name: "scalar-divide",
+        what: "scalar f32 div and sqrt, 4 independent chains (the model charges the latency)",
+        fits: Fits::Check,
+        kind: Kind::ScalarDivide { iters: 200_000 },
+    },
+    Bench {
         name: "gather-l1-16",
         what: "gathers from an L1 table, 16 lines each",
         fits: Fits::Gather,
@@ -231,9 +255,37 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Atomic { count: 50_000 },
     },
     Bench {
+        name: "random-l2",
+        what: "loads of random lines of an L2-sized array",
+        fits: Fits::L2,
+        kind: Kind::Random {
+            level: Level::L2,
+            count: 1 << 20,
+        },
+    },
+    Bench {
+        name: "random-l3",
+        what: "loads of random lines of an array in the shared cache",
+        fits: Fits::L3,
+        kind: Kind::Random {
+            level: Level::L3,
+            count: 1 << 20,
+        },
+    },
+    Bench {
+        name: "random-dram",
+        what: "loads of random lines of an array in DRAM",
+        fits: Fits::Dram,
+        // 128 MiB of lines a run: the warm-up run leaves little of the timed run's in any cache.
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+        },
+    },
+    Bench {
         name: "stream-l2",
         what: "streaming loads over an L2-sized array",
-        fits: Fits::L2,
+        fits: Fits::StreamL2,
         kind: Kind::Stream {
             level: Level::L2,
             store: false,
@@ -243,7 +295,7 @@ pub const BENCHES: &[Bench] = &[
     Bench {
         name: "stream-l3",
         what: "streaming loads over an array in the shared cache",
-        fits: Fits::L3,
+        fits: Fits::StreamL3,
         kind: Kind::Stream {
             level: Level::L3,
             store: false,
@@ -253,7 +305,7 @@ pub const BENCHES: &[Bench] = &[
     Bench {
         name: "stream-dram",
         what: "streaming loads over an array in DRAM",
-        fits: Fits::Dram,
+        fits: Fits::StreamDram,
         kind: Kind::Stream {
             level: Level::Dram,
             store: false,
@@ -362,6 +414,10 @@ pub struct Measured {
     pub host_ns: f64,
     /// Its records (one task per run; `tasks` empty tasks for the task benchmarks).
     pub tasks: Vec<TaskRecord>,
+    /// Records of a counted warm-up run replayed before `tasks` and not timed (the native runs
+    /// are timed warm: the memory benchmarks' arrays are in the caches they are sized for), or
+    /// none.
+    pub warm: Vec<TaskRecord>,
 }
 
 /// Deterministic pseudo-random numbers (the benchmarks' indices and masks).
@@ -477,6 +533,28 @@ impl Kernel for DivK {
     }
 }
 
+/// Scalar divides and square roots on four independent chains, counted as they execute: the
+/// divider's throughput, which the model does not charge (it charges `scalar_div_cycles`, a
+/// divide's latency; scalars carry no chain depth). A check: how far the two are apart.
+struct ScalarDivK {
+    iters: usize,
+}
+impl Kernel for ScalarDivK {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let d = black_box(1.000_01f32);
+        let mut a = black_box([2.0f32, 3.0, 5.0, 7.0]);
+        for _ in 0..self.iters {
+            a[0] = s.s_div(a[0], d);
+            a[1] = s.s_fn(sism_simd::ScalarClass::Div, a[1], f32::sqrt);
+            a[2] = s.s_div(a[2], d);
+            a[3] = s.s_fn(sism_simd::ScalarClass::Div, a[3], f32::sqrt);
+        }
+        a[0] + a[1] + a[2] + a[3]
+    }
+}
+
 struct GatherK<'a> {
     table: &'a mut [f32],
     idx: &'a [i32],
@@ -497,6 +575,27 @@ impl Kernel for GatherK<'_> {
             }
         }
         s.reduce_add_f(acc)
+    }
+}
+
+/// 16-lane loads of the lines `lines` names (line `l`: floats `16 l .. 16 l + 16` of `table`) on
+/// four accumulators: independent misses, at addresses no prefetcher follows.
+struct RandomK<'a> {
+    table: &'a [f32],
+    lines: &'a [u32],
+}
+impl Kernel for RandomK<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let mut a = [s.splat_f(0.0); 4];
+        for k in (0..self.lines.len() / 4 * 4).step_by(4) {
+            for (j, a) in a.iter_mut().enumerate() {
+                let l = s.s_load(self.lines, k + j) as usize * 16;
+                *a = s.add_f(*a, s.load_f(&self.table[l..l + 16]));
+            }
+        }
+        s.reduce_add_f(s.add_f(s.add_f(a[0], a[1]), s.add_f(a[2], a[3])))
     }
 }
 
@@ -622,6 +721,7 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
         f(&rec);
         rec.take_tasks()
     };
+    let mut warm = Vec::new();
     let (host_ns, tasks) = match bench.kind {
         Kind::Alu { iters, chains } => {
             // One instance per chain count (a const parameter, so the rounds compile to straight
@@ -664,6 +764,14 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 sism_simd::run_counting(r, DivK { iters });
             }),
         ),
+        Kind::ScalarDivide { iters } => (
+            time(&mut || {
+                black_box(sism_simd::run_native(ScalarDivK { iters }));
+            }),
+            counted(&mut |r| {
+                sism_simd::run_counting(r, ScalarDivK { iters });
+            }),
+        ),
         Kind::Gather {
             table_kb,
             lines,
@@ -679,6 +787,16 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                     idx: &idx,
                     scatter,
                 }));
+            });
+            warm = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    GatherK {
+                        table: &mut table,
+                        idx: &idx,
+                        scatter,
+                    },
+                );
             });
             let tasks = counted(&mut |r| {
                 sism_simd::run_counting(
@@ -724,6 +842,17 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                     store,
                 }));
             });
+            // One pass warms the model's caches as the native warm-up run warmed the host's.
+            warm = counted(&mut |r| {
+                sism_simd::run_counting(
+                    r,
+                    StreamK {
+                        data: &mut data,
+                        passes: 1,
+                        store,
+                    },
+                );
+            });
             let tasks = counted(&mut |r| {
                 sism_simd::run_counting(
                     r,
@@ -735,6 +864,34 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 );
             });
             (ns, tasks)
+        }
+        Kind::Random { level, count } => {
+            let n = (level.bytes(m) / 4).max(1024) / 16 * 16;
+            let table = vec![1.0f32; n];
+            let mut st = 0x2545_f491_u64;
+            let lines: Vec<u32> = (0..count).map(|_| lcg(&mut st) % (n / 16) as u32).collect();
+            let run = |r: Option<&Recorder>| {
+                let k = RandomK {
+                    table: &table,
+                    lines: &lines,
+                };
+                match r {
+                    None => sism_simd::run_native(k),
+                    Some(r) => sism_simd::run_counting(r, k),
+                }
+            };
+            let ns = time(&mut || {
+                black_box(run(None));
+            });
+            warm = counted(&mut |r| {
+                run(Some(r));
+            });
+            (
+                ns,
+                counted(&mut |r| {
+                    run(Some(r));
+                }),
+            )
         }
         Kind::FreshPages { bytes } => {
             let n = (bytes / 4).max(1024);
@@ -824,6 +981,7 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
         bench: *bench,
         host_ns,
         tasks,
+        warm,
     }
 }
 
@@ -837,8 +995,8 @@ pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
         one.barrier_cycles = 0;
         one.task_overhead_cycles = 0.0;
     }
-    let phases = timing::simulate_frame(&one, &[("bench", &x.tasks)]);
-    phases[0].cycles as f64
+    let phases = timing::simulate_frame(&one, &[("warm", &x.warm), ("bench", &x.tasks)]);
+    phases[1].cycles as f64
 }
 
 /// A fitted host model and the evidence.
@@ -912,6 +1070,12 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::Dram => solve(&mut m, x, 0.0, 100_000.0, &|m, c| {
                     m.dram_latency_ns = (c * 10.0).round() / 10.0
                 }),
+                Fits::StreamL2 => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_l2_cycles = c),
+                Fits::StreamL3 if m.l3_kb > 0 => {
+                    solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_l3_cycles = c)
+                }
+                Fits::StreamL3 => {}
+                Fits::StreamDram => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_dram_cycles = c),
                 Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.barrier_cycles = c.round() as u32
                 }),
@@ -939,6 +1103,9 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.compress_cycles = (m.compress_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.scalar_cycles = (m.scalar_cycles * 1000.0).round().max(10.0) / 1000.0;
     m.gather_cycles = (m.gather_cycles * 100.0).round().max(1.0) / 100.0;
+    m.stream_l2_cycles = (m.stream_l2_cycles * 1000.0).round() / 1000.0;
+    m.stream_l3_cycles = (m.stream_l3_cycles * 1000.0).round() / 1000.0;
+    m.stream_dram_cycles = (m.stream_dram_cycles * 1000.0).round() / 1000.0;
     m.name = "host-calibrated".into();
     let rows = measured
         .iter()
@@ -1017,6 +1184,8 @@ mod tests {
         truth.atomic_cycles = 70;
         truth.l2_latency = 12;
         truth.l3_latency = 40;
+        truth.stream_l2_cycles = 1.5;
+        truth.stream_l3_cycles = 3.0;
         truth.task_overhead_cycles = 1500.0;
         truth.barrier_cycles = 8000;
         // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
@@ -1024,6 +1193,7 @@ mod tests {
             Kind::Alu { chains, .. } => Kind::Alu { iters: 2000, chains },
             Kind::ScalarChain { .. } => Kind::ScalarChain { iters: 5000 },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
+            Kind::ScalarDivide { .. } => Kind::ScalarDivide { iters: 2000 },
             Kind::Gather {
                 table_kb,
                 lines,
@@ -1041,6 +1211,7 @@ mod tests {
                 store,
                 bytes: 1 << 20,
             },
+            Kind::Random { level, .. } => Kind::Random { level, count: 20_000 },
             Kind::Compress { .. } => Kind::Compress { count: 500 },
             Kind::Copy { .. } => Kind::Copy { passes: 100 },
             Kind::FreshPages { .. } => Kind::FreshPages { bytes: 4 << 20 },
@@ -1048,7 +1219,7 @@ mod tests {
         };
         let measured: Vec<Measured> = BENCHES
             .iter()
-            .filter(|b| b.fits != Fits::Check && b.fits != Fits::Dram)
+            .filter(|b| !matches!(b.fits, Fits::Check | Fits::Dram | Fits::StreamDram))
             .map(|b| {
                 let b = Bench {
                     kind: shrink(b.kind),
@@ -1069,6 +1240,8 @@ mod tests {
         start.atomic_cycles = 10;
         start.l2_latency = 50;
         start.l3_latency = 100;
+        start.stream_l2_cycles = 0.5;
+        start.stream_l3_cycles = 0.5;
         start.task_overhead_cycles = 0.0;
         start.barrier_cycles = 0;
         let c = fit(&start, &measured).config;
@@ -1095,6 +1268,16 @@ mod tests {
         assert_eq!(c.atomic_cycles, 70);
         assert!(c.l2_latency.abs_diff(12) <= 1, "l2 {}", c.l2_latency);
         assert!(c.l3_latency.abs_diff(40) <= 1, "l3 {}", c.l3_latency);
+        assert!(
+            near(c.stream_l2_cycles, 1.5, 0.05),
+            "stream l2 {}",
+            c.stream_l2_cycles
+        );
+        assert!(
+            near(c.stream_l3_cycles, 3.0, 0.05),
+            "stream l3 {}",
+            c.stream_l3_cycles
+        );
         assert!(
             near(c.task_overhead_cycles, 1500.0, 0.02),
             "tasks {}",

@@ -76,6 +76,9 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("task_overhead_cycles", 0.0, 10_000_000.0),
     ("latency_scale", 0.0, 100.0),
     ("tlb_miss_cycles", 0.0, 10_000.0),
+    ("stream_l2_cycles", 0.0, 10_000.0),
+    ("stream_l3_cycles", 0.0, 10_000.0),
+    ("stream_dram_cycles", 0.0, 10_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -217,6 +220,26 @@ pub struct MachineConfig {
     /// Latency of an L2 miss that hits the shared cache, cycles (used when `l3_kb` > 0).
     #[serde(default)]
     pub l3_latency: u32,
+    /// True for a core whose hardware prefetchers follow sequential streams: an L1 miss that
+    /// continues one of the task's recent streams of lines ([`super::timing::STREAMS`] streams, a
+    /// stride of at most [`super::timing::STREAM_REACH`] lines either way) costs the streaming cost
+    /// of the level that serves it (`stream_*_cycles`) instead of its latency. Larrabee: false
+    /// (assumption: Seiler 2008 describes software prefetch instructions, not a hardware
+    /// prefetcher, and the model's kernels issue none). Hosts: true.
+    #[serde(default)]
+    pub prefetcher: bool,
+    /// Cycles of one prefetched line served by the L2 (0–10000; used with `prefetcher`): what a
+    /// line of a sequential stream costs once the prefetcher runs ahead of it, its throughput, not
+    /// its latency, and not divided by `memory_parallelism`. Hosts: fitted on streaming loads.
+    #[serde(default)]
+    pub stream_l2_cycles: f64,
+    /// Cycles of one prefetched line served by the shared cache (0–10000; used with `prefetcher`).
+    #[serde(default)]
+    pub stream_l3_cycles: f64,
+    /// Cycles of one prefetched line served by DRAM (0–10000; used with `prefetcher`): about the
+    /// line's bytes over one core's streaming bandwidth.
+    #[serde(default)]
+    pub stream_dram_cycles: f64,
 }
 
 fn one() -> f64 {
@@ -290,6 +313,10 @@ impl MachineConfig {
             l3_kb: 0,
             l3_ways: 16,
             l3_latency: 0,
+            prefetcher: false,
+            stream_l2_cycles: 0.0,
+            stream_l3_cycles: 0.0,
+            stream_dram_cycles: 0.0,
         }
     }
 
@@ -523,6 +550,9 @@ impl MachineConfig {
             "task_overhead_cycles" => self.task_overhead_cycles,
             "latency_scale" => self.latency_scale,
             "tlb_miss_cycles" => self.tlb_miss_cycles,
+            "stream_l2_cycles" => self.stream_l2_cycles,
+            "stream_l3_cycles" => self.stream_l3_cycles,
+            "stream_dram_cycles" => self.stream_dram_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

@@ -293,6 +293,13 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         l3_kb,
         l3_ways,
         l3_latency: if l3_kb > 0 { fam.l3_latency } else { 0 },
+        // Stream prefetchers (every family here has L1 and L2 stream prefetchers): a prefetched
+        // line costs its level's throughput. Starting points, replaced by `sism calibrate`: L2
+        // about 32 bytes a cycle, the shared cache half that, DRAM a line over one core's share.
+        prefetcher: true,
+        stream_l2_cycles: 1.0,
+        stream_l3_cycles: 2.0,
+        stream_dram_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
     }
 }
 

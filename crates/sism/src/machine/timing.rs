@@ -37,6 +37,12 @@
 //!   an L2 miss looks up one cache shared by all cores first (`l3_latency` on a hit; a miss adds
 //!   it to the DRAM latency); L2 write-backs are absorbed by it, and its own dirty evictions go to
 //!   DRAM. `memory_parallelism` (misses a thread overlaps, 1 on Larrabee) divides a task's stall.
+//! * **Prefetching** (`prefetcher`, hosts): an access within [`STREAM_REACH`] lines of one of the
+//!   task's last [`STREAMS`] stream heads continues that stream ([`LineMapper::map_each`]). When
+//!   such an access misses L1, the prefetcher has run ahead of it: it costs the streaming cost of
+//!   the level that served it (`stream_l2_cycles`, `stream_l3_cycles`, `stream_dram_cycles`, a
+//!   throughput, not divided by `memory_parallelism`) instead of that level's latency. Random
+//!   misses keep their latencies.
 //! * **Hardware threads hide latency**: with `T` threads per core each running tasks like this one,
 //!   a task of `B` busy cycles (issue + atomics) and `S` stall cycles takes `max(B, (B + S) / T)`
 //!   of the core's time (the others issue while it waits), i.e. the exposed stall is
@@ -282,14 +288,17 @@ struct LineTally {
     l3_hits: u64,
     /// Dirty lines the last level evicted (L2 without a shared cache, else the shared cache).
     writebacks: u64,
+    /// Of the L2 hits, the L3 hits and the DRAM fills: those that continued a stream of the
+    /// task's lines ([`LineMapper::map`]'s stream bit), which a prefetcher covers.
+    streamed: [u64; 3],
 }
 
 impl LineTally {
-    /// Replays `lines` (ids from [`map_lines`]) through `core`'s caches.
+    /// Replays `lines` (ids from [`LineMapper::map`]) through `core`'s caches.
     #[inline]
     fn replay(&mut self, core: &mut Core, mut l3: Option<&mut Cache>, lines: &[u32]) {
         for &a in lines {
-            let (id, write) = (a >> 1, a & 1 == 1);
+            let (id, write, stream) = (a >> 2, a & 1 == 1, (a >> 1 & 1) as u64);
             if core.l1.access(id, write).hit {
                 self.l1_hits += 1;
                 continue;
@@ -297,6 +306,7 @@ impl LineTally {
             let r = core.l2.access(id, write);
             if r.hit {
                 self.l2_hits += 1;
+                self.streamed[0] += stream;
                 continue;
             }
             self.l2_misses += 1;
@@ -305,9 +315,13 @@ impl LineTally {
                 Some(l3) => {
                     let r3 = l3.access(id, write);
                     self.l3_hits += r3.hit as u64;
+                    self.streamed[if r3.hit { 1 } else { 2 }] += stream;
                     self.writebacks += r3.writeback as u64;
                 }
-                None => self.writebacks += r.writeback as u64,
+                None => {
+                    self.streamed[2] += stream;
+                    self.writebacks += r.writeback as u64;
+                }
             }
         }
         self.accesses += lines.len() as u64;
@@ -404,17 +418,26 @@ impl<'a> Machine<'a> {
         // Page walks: the walker's time, neither overlapped with other misses nor hidden by other
         // threads.
         let paging = (tlb_misses as f64 * m.tlb_miss_cycles).ceil() as u64;
-        let stall = (tally.l1_hits.saturating_mul(l1_lat))
-            .saturating_add(tally.l2_hits.saturating_mul(l2_lat))
-            .saturating_add(tally.l3_hits.saturating_mul(m.l3_latency as u64))
-            .saturating_add(dram_misses.saturating_mul(self.dram_miss));
-        // Misses a thread overlaps (out-of-order cores) divide its stall before other hardware
-        // threads hide what they can.
+        // With a prefetcher, the misses that continue a stream cost their level's streaming
+        // throughput; the others their latency.
+        let streamed = if m.prefetcher { tally.streamed } else { [0; 3] };
+        let latency = (tally.l1_hits.saturating_mul(l1_lat))
+            .saturating_add((tally.l2_hits - streamed[0]).saturating_mul(l2_lat))
+            .saturating_add((tally.l3_hits - streamed[1]).saturating_mul(m.l3_latency as u64))
+            .saturating_add((dram_misses - streamed[2]).saturating_mul(self.dram_miss));
+        let streaming = (streamed[0] as f64 * m.stream_l2_cycles
+            + streamed[1] as f64 * m.stream_l3_cycles
+            + streamed[2] as f64 * m.stream_dram_cycles)
+            .ceil() as u64;
+        let stall = latency.saturating_add(streaming);
+        // Misses a thread overlaps (out-of-order cores) divide its latency before other hardware
+        // threads hide what they can; a stream's cost is a throughput already.
         let overlapped = if m.memory_parallelism > 1.0 {
-            (stall as f64 / m.memory_parallelism).ceil() as u64
+            (latency as f64 / m.memory_parallelism).ceil() as u64
         } else {
-            stall
-        };
+            latency
+        }
+        .saturating_add(streaming);
         let exposed = exposed_stall(overlapped, issue.saturating_add(atomics), m.threads_per_core)
             .saturating_add(paging);
         TaskCost {
@@ -498,6 +521,15 @@ impl<'a> Machine<'a> {
     }
 }
 
+/// Sequential streams a task's prefetcher follows ([`LineMapper::map_each`]). Assumption: 16, the
+/// streams the L2 stream prefetchers of current x86 cores track (Intel's optimisation manual: 32
+/// streams, one forward and one backward per 4 KiB page; AMD's Zen guides give no count).
+pub const STREAMS: usize = 16;
+
+/// Lines either way within which an access continues a stream: a stride of up to 4 lines (256
+/// bytes) is followed, as a stride prefetcher does.
+pub const STREAM_REACH: u64 = 4;
+
 /// Chunks of line ids mapped ahead of the cache replay; with [`CHUNK_LINES`] per chunk, the
 /// pipeline holds at most a few MB whatever the records claim.
 const PIPELINE_DEPTH: usize = 16;
@@ -552,7 +584,7 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
     })
 }
 
-/// A frame's line streams decoded once into first-touch ids (`id << 1 | is_write`, as
+/// A frame's line streams decoded once into first-touch ids (`id << 2 | stream << 1 | is_write`, as
 /// [`LineMapper::map`] gives them) with each task's pages, for re-timing the same records on many machines without decoding
 /// them again ([`simulate_decoded`]). Holds 4 bytes per line access.
 pub struct DecodedLines {
@@ -628,7 +660,7 @@ pub struct LineMapper {
 }
 
 impl LineMapper {
-    /// Decodes `task`'s line stream as `id << 1 | is_write`, calling `replay` with chunks of at
+    /// Decodes `task`'s line stream as `id << 2 | continues_a_stream << 1 | is_write`, calling `replay` with chunks of at
     /// most [`CHUNK_LINES`] ids (`chunk` is the buffer); returns the task's pages.
     pub fn map(
         &mut self,
@@ -654,12 +686,39 @@ impl LineMapper {
     /// Pages are blocks of 64 consecutive first-touch ids ([`PAGE_BYTES`] of memory in the order
     /// the frame first touched it), not of process addresses: where a buffer falls relative to the
     /// host's page boundaries changes from run to run, and the counts must not.
+    ///
+    /// Streams are followed on addresses (first-touch ids make any first pass look sequential):
+    /// the task's last [`STREAMS`] stream heads are kept, and an access within
+    /// [`STREAM_REACH`] lines of one of them, either way, continues that stream (bit 1 of its id
+    /// word) and moves its head; any other access starts a stream in place of the oldest. A
+    /// uniform shift of the addresses changes nothing; two buffers the allocator happened to
+    /// place end to end can continue one stream across the seam, as a hardware prefetcher would.
     pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
         let lines_per_page = (PAGE_BYTES / 64) as u32;
         let mut pages = TaskPages::default();
         let mut last_page = u32::MAX;
         self.task_pages.clear();
+        // Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
+        let mut heads = [u64::MAX / 2; STREAMS];
+        let mut oldest = 0;
         task.lines.for_each(|line, write| {
+            let near = heads.iter().position(|&h| {
+                line != h && line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH
+            });
+            let stream = match near {
+                Some(k) => {
+                    heads[k] = line;
+                    true
+                }
+                None => {
+                    // The same line again keeps its stream's head; a new line starts a stream.
+                    if !heads.contains(&line) {
+                        heads[oldest] = line;
+                        oldest = (oldest + 1) % STREAMS;
+                    }
+                    false
+                }
+            };
             let before = self.ids.len();
             let id = self.ids.id(line);
             // The first line of a page, touched first by a write: fresh memory.
@@ -669,7 +728,7 @@ impl LineMapper {
                 last_page = page;
                 self.task_pages.insert(page as u64);
             }
-            each(id << 1 | write as u32);
+            each(id << 2 | (stream as u32) << 1 | write as u32);
         });
         pages.distinct = self.task_pages.len() as u64;
         pages

@@ -12,7 +12,7 @@
 pub mod visibility;
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use super::params::{FloatParam, IntParam};
 use super::shadow_map::depth_map::{FaceMap, LightMaps};
@@ -269,17 +269,26 @@ struct CountedTexels<'a, S: Simd> {
 impl<S: Simd> visibility::DepthTexels for CountedTexels<'_, S> {
     #[inline(always)]
     fn depth(&self, x: i64, y: i64) -> f32 {
-        let n = self.map.size as i64;
-        if x < 0 || y < 0 || x >= n || y >= n {
+        let (s, n) = (self.s, self.map.size as i64);
+        // Four compares joined into one branch.
+        for _ in 0..3 {
+            s.scalar_op(ScalarClass::Alu);
+        }
+        if s.s_branch(x < 0 || y < 0 || x >= n || y >= n) {
             return f32::NEG_INFINITY;
         }
-        let texel = std::slice::from_ref(&self.map.depth[(y * n + x) as usize]);
-        self.s.scalar_read(texel);
-        texel[0]
+        s.s_load(&self.map.depth, s.s_add(s.s_mul(y, n), x) as usize)
     }
     #[inline(always)]
     fn inside(&self, x: i64, y: i64) -> bool {
-        visibility::DepthTexels::inside(self.map, x, y)
+        for _ in 0..3 {
+            self.s.scalar_op(ScalarClass::Alu);
+        }
+        self.s.s_branch(visibility::DepthTexels::inside(self.map, x, y))
+    }
+    #[inline(always)]
+    fn op(&self, class: ScalarClass) {
+        self.s.scalar_op(class);
     }
 }
 
@@ -387,6 +396,8 @@ impl Kernel for RbsmLookup<'_> {
                     front |= 1 << lane;
                 }
             }
+            // The projection's four divides per lane are independent across lanes (an out-of-order
+            // core overlaps them; the model charges a divide its latency): declared.
             s.scalar_read(chunk);
             s.scalar_ops(20 * chunk.len() as u64);
             let valid = s.mask_and(m, Mask16(front));
@@ -415,7 +426,6 @@ impl Kernel for RbsmLookup<'_> {
                     );
                     tap[lane] = v;
                     steps[lane] += work.steps;
-                    s.scalar_ops(40 + 12 * work.steps as u64);
                 }
                 sum = s.add_f(sum, s.from_array_f(tap));
             }

@@ -20,6 +20,7 @@
 //! discontinuity; `tests/rbsm_oracle.rs` holds an independent transcription they are checked against.
 
 use super::super::shadow_map::depth_map::{FaceMap, Lookup};
+use sism_simd::ScalarClass;
 
 /// Which visibility function.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,6 +46,12 @@ pub trait DepthTexels {
     fn depth(&self, x: i64, y: i64) -> f32;
     /// Is texel `(x, y)` inside the map?
     fn inside(&self, x: i64, y: i64) -> bool;
+    /// Counts one scalar operation of `class` the functions executed (a counted map reports it to
+    /// its SIMD context; a plain map ignores it).
+    #[inline(always)]
+    fn op(&self, class: ScalarClass) {
+        let _ = class;
+    }
 }
 
 impl DepthTexels for FaceMap {
@@ -79,9 +86,48 @@ struct Fragment<'m, M: DepthTexels> {
 }
 
 impl<M: DepthTexels> Fragment<'_, M> {
+    /// The depth test of texel `(x, y)`: its address (two adds), the read, the compare and branch.
     #[inline]
     fn lit_at(&self, x: i64, y: i64, z: f32) -> bool {
+        self.map.op(ScalarClass::Alu);
+        self.map.op(ScalarClass::Alu);
+        self.map.op(ScalarClass::Branch);
         z <= self.map.depth(x, y)
+    }
+    /// Is `z` within `epsilon` of texel `(x, y)`'s depth? The address, the read, a subtract, an
+    /// absolute value, the compare and branch.
+    #[inline]
+    fn near(&self, x: i64, y: i64, z: f32, epsilon: f32) -> bool {
+        for class in [
+            ScalarClass::Alu,
+            ScalarClass::Alu,
+            ScalarClass::Alu,
+            ScalarClass::Alu,
+            ScalarClass::Branch,
+        ] {
+            self.map.op(class);
+        }
+        (z - self.map.depth(x, y)).abs() < epsilon
+    }
+    /// One step of a walk or scan: the step count and two coordinates advanced, the loop's branch.
+    #[inline]
+    fn step(&self, steps: &mut u32) {
+        *steps += 1;
+        for class in [
+            ScalarClass::Alu,
+            ScalarClass::Alu,
+            ScalarClass::Alu,
+            ScalarClass::Branch,
+        ] {
+            self.map.op(class);
+        }
+    }
+    /// `x` clamped to [0, 1] (a min and a max).
+    #[inline]
+    fn clamp01(&self, x: f32) -> f32 {
+        self.map.op(ScalarClass::Alu);
+        self.map.op(ScalarClass::Alu);
+        clamp01(x)
     }
     #[inline]
     fn shadowed(&self, x: i64, y: i64) -> bool {
@@ -122,27 +168,37 @@ fn code<M: DepthTexels>(f: &Fragment<'_, M>, speck: bool) -> Code {
     }
 }
 
-/// The flagged sides, in the order L, R (horizontal flags) or B, T (vertical flags).
-fn flags_x(rc: u8) -> Vec<(i64, i64)> {
-    let mut v = Vec::with_capacity(2);
-    if rc >= 2 {
-        v.push(L);
-    }
-    if rc == 1 || rc == 3 {
-        v.push(R);
-    }
-    v
+/// Up to two flagged sides (no heap allocation: a walk runs per flagged fragment).
+#[derive(Clone, Copy)]
+struct Sides {
+    side: [(i64, i64); 2],
+    len: usize,
 }
 
-fn flags_y(gc: u8) -> Vec<(i64, i64)> {
-    let mut v = Vec::with_capacity(2);
-    if gc >= 2 {
-        v.push(B);
+impl Sides {
+    fn of(first: Option<(i64, i64)>, second: Option<(i64, i64)>) -> Sides {
+        let mut v = Sides {
+            side: [(0, 0); 2],
+            len: 0,
+        };
+        for d in [first, second].into_iter().flatten() {
+            v.side[v.len] = d;
+            v.len += 1;
+        }
+        v
     }
-    if gc == 1 || gc == 3 {
-        v.push(T);
+    fn iter(&self) -> std::slice::Iter<'_, (i64, i64)> {
+        self.side[..self.len].iter()
     }
-    v
+}
+
+/// The flagged sides, in the order L, R (horizontal flags) or B, T (vertical flags).
+fn flags_x(rc: u8) -> Sides {
+    Sides::of((rc >= 2).then_some(L), (rc == 1 || rc == 3).then_some(R))
+}
+
+fn flags_y(gc: u8) -> Sides {
+    Sides::of((gc >= 2).then_some(B), (gc == 1 || gc == 3).then_some(T))
 }
 
 /// One ONDS walk (§2) from the fragment's texel in direction `dir`; returns α and adds the steps
@@ -173,8 +229,9 @@ fn alpha<M: DepthTexels>(
     let (mut tx, mut ty) = (f.i + dir.0, f.j + dir.1);
     let mut zz = f.z;
     for _ in 0..s.max_search {
-        *steps += 1;
-        if entering && (zz - f.map.depth(tx, ty)).abs() < s.epsilon {
+        f.step(steps);
+        f.map.op(ScalarClass::Branch);
+        if entering && f.near(tx, ty, zz, s.epsilon) {
             zz -= s.epsilon;
         }
         let here = f.lit_at(tx, ty, zz);
@@ -189,8 +246,9 @@ fn alpha<M: DepthTexels>(
         }
         let mut zl = zz;
         let mut keep = false;
-        for m in &perpendicular {
-            if rsmss && !entering && (zl - f.map.depth(tx + m.0, ty + m.1)).abs() < s.epsilon {
+        for m in perpendicular.iter() {
+            f.map.op(ScalarClass::Branch);
+            if rsmss && !entering && f.near(tx + m.0, ty + m.1, zl, s.epsilon) {
                 zl -= s.epsilon;
             }
             if f.lit_at(tx + m.0, ty + m.1, zl) != code.c {
@@ -212,11 +270,21 @@ fn alpha<M: DepthTexels>(
 }
 
 /// The normalised position on one axis from its two walks (§2).
-fn normalise(a_minus: i32, a_plus: i32, p: f32, max_search: i32) -> f32 {
+fn normalise<M: DepthTexels>(f: &Fragment<'_, M>, a_minus: i32, a_plus: i32, p: f32, max_search: i32) -> f32 {
+    // Counted as executed: the two tests, `lh` (two absolute values, an add, a subtract, a min, a
+    // conversion), the choice of `po`, `d` (a max, a conversion, two divides, two adds) and the
+    // last test with its multiply-add.
+    let ops = |class: ScalarClass, n: usize| (0..n).for_each(|_| f.map.op(class));
+    ops(ScalarClass::Branch, 2);
     if a_minus < 0 && a_plus < 0 {
         return -1.0;
     }
+    ops(ScalarClass::Alu, 6);
     let lh = ((a_minus.abs() + a_plus.abs() - 1).min(max_search)) as f32;
+    ops(ScalarClass::Branch, 2);
+    ops(ScalarClass::Alu, 6);
+    ops(ScalarClass::Div, 2);
+    ops(ScalarClass::Branch, 2);
     let po = if a_minus == a_plus {
         p.min(1.0 - p)
     } else if a_minus > a_plus {
@@ -250,8 +318,8 @@ fn onds<M: DepthTexels>(
     let down = alpha(f, code, (0, -1), function, s, steps);
     let up = alpha(f, code, (0, 1), function, s, steps);
     (
-        normalise(left, right, f.px, s.max_search),
-        normalise(down, up, f.py, s.max_search),
+        normalise(f, left, right, f.px, s.max_search),
+        normalise(f, down, up, f.py, s.max_search),
     )
 }
 
@@ -336,14 +404,14 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
     } else if nx < -2.0 {
         dy
     } else {
-        clamp01(1.0 + dy - nx)
+        f.clamp01(1.0 + dy - nx)
     };
     let ax = if rc == 0 {
         f32::INFINITY
     } else if ny < -2.0 {
         dx
     } else {
-        clamp01(1.0 + dx - ny)
+        f.clamp01(1.0 + dx - ny)
     };
     let (i, j) = (f.i, f.j);
     if code.c {
@@ -373,9 +441,9 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             if umbra_both {
                 let (nxp, nyp) = ((nx + 4.0) / 2.0, (ny + 4.0) / 2.0);
                 return if rc == 3 {
-                    clamp01(px - nyp + 1.0).min(clamp01(2.0 - px - nyp)).min(py)
+                    f.clamp01(px - nyp + 1.0).min(f.clamp01(2.0 - px - nyp)).min(py)
                 } else {
-                    clamp01(py - nxp + 1.0).min(clamp01(2.0 - py - nxp)).min(px)
+                    f.clamp01(py - nxp + 1.0).min(f.clamp01(2.0 - py - nxp)).min(px)
                 };
             }
             start = q; // fall through to C8/C10 from q
@@ -387,7 +455,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             let (mut pb, mut nt);
             loop {
                 q = (q.0 + step.0, q.1 + step.1);
-                *steps += 1;
+                f.step(steps);
                 pb = f.shadowed(q.0 + B.0, q.1 + B.1);
                 nt = f.shadowed(q.0 + T.0, q.1 + T.1);
                 if !(pb && nt) || f.shadowed(q.0, q.1) {
@@ -395,10 +463,10 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 }
             }
             return if !pb && !nt {
-                clamp01(1.0 - nx)
+                f.clamp01(1.0 - nx)
             } else {
-                let a = if pb { clamp01(2.0 - py - nx) } else { dx };
-                let c = if nt { clamp01(1.0 + py - nx) } else { dx };
+                let a = if pb { f.clamp01(2.0 - py - nx) } else { dx };
+                let c = if nt { f.clamp01(1.0 + py - nx) } else { dx };
                 a.min(c)
             };
         }
@@ -409,7 +477,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             let (mut pl, mut nr);
             loop {
                 q = (q.0 + step.0, q.1 + step.1);
-                *steps += 1;
+                f.step(steps);
                 pl = f.shadowed(q.0 + L.0, q.1 + L.1);
                 nr = f.shadowed(q.0 + R.0, q.1 + R.1);
                 if !(pl && nr) || f.shadowed(q.0, q.1) {
@@ -417,10 +485,10 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 }
             }
             return if !pl && !nr {
-                clamp01(1.0 - ny)
+                f.clamp01(1.0 - ny)
             } else {
-                let a = if nr { clamp01(2.0 - px - ny) } else { 1.0 - py };
-                let c = if pl { clamp01(1.0 + px - ny) } else { 1.0 - py };
+                let a = if nr { f.clamp01(2.0 - px - ny) } else { 1.0 - py };
+                let c = if pl { f.clamp01(1.0 + px - ny) } else { 1.0 - py };
                 a.min(c)
             };
         }
@@ -447,7 +515,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         if !l && !r {
             let mut k = 1i64;
             loop {
-                *steps += 1;
+                f.step(steps);
                 let mut hit = false;
                 for row in [j + k, j - k] {
                     l = f.shadowed(i - 1, row + 1) || f.shadowed(i - 1, row - 1);
@@ -464,11 +532,11 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             }
         }
         return if l && r {
-            clamp01(ny)
+            f.clamp01(ny)
         } else if !l {
-            sel(ny, 1.0 - px, clamp01(ny - px))
+            sel(ny, 1.0 - px, f.clamp01(ny - px))
         } else {
-            sel(ny, px, clamp01(ny - 1.0 + px))
+            sel(ny, px, f.clamp01(ny - 1.0 + px))
         };
     }
     if rc == 3 {
@@ -478,31 +546,31 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         let l = f.shadowed(q.0 - 1, q.1);
         let r = f.shadowed(q.0 + 1, q.1);
         if l && r {
-            return clamp01(ny);
+            return f.clamp01(ny);
         }
         if l != r {
             let a = if l {
                 sigma_y
             } else {
-                sel(ny, 1.0 - px, clamp01(ny - px))
+                sel(ny, 1.0 - px, f.clamp01(ny - px))
             };
             let c = if r {
                 sigma_y
             } else {
-                sel(ny, px, clamp01(ny - 1.0 + px))
+                sel(ny, px, f.clamp01(ny - 1.0 + px))
             };
             return a.max(c);
         }
         // (Outside the map is shadowed, so a walk heading off it would never end: it stops at the
         // first texel outside, where it probes.)
         while f.shadowed(q.0, q.1) && f.map.inside(q.0, q.1) {
-            *steps += 1;
+            f.step(steps);
             q.1 += dv;
         }
         let l = f.shadowed(i - 1, q.1 + 1) || f.shadowed(i - 1, q.1 - 1);
         let r = f.shadowed(i + 1, q.1 + 1) || f.shadowed(i + 1, q.1 - 1);
         return if l && r {
-            clamp01(ny)
+            f.clamp01(ny)
         } else {
             (if l { px } else { 1.0 - px }).max(sigma_y)
         };
@@ -514,7 +582,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         if !t && !bt {
             let mut k = 1i64;
             loop {
-                *steps += 1;
+                f.step(steps);
                 let mut hit = false;
                 for col in [i + k, i - k] {
                     t = f.shadowed(col - 1, j - 1) || f.shadowed(col + 1, j - 1);
@@ -531,11 +599,11 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             }
         }
         return if t && bt {
-            clamp01(nx)
+            f.clamp01(nx)
         } else if !t {
-            sel(nx, 1.0 - py, clamp01(nx - py))
+            sel(nx, 1.0 - py, f.clamp01(nx - py))
         } else {
-            sel(nx, py, clamp01(nx - 1.0 + py))
+            sel(nx, py, f.clamp01(nx - 1.0 + py))
         };
     }
     if gc == 3 {
@@ -545,29 +613,29 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         let bt = f.shadowed(q.0, q.1 + 1);
         let t = f.shadowed(q.0, q.1 - 1);
         if bt && t {
-            return clamp01(nx);
+            return f.clamp01(nx);
         }
         if bt != t {
             let a = if t {
                 sigma_x
             } else {
-                sel(nx, 1.0 - py, clamp01(nx - py))
+                sel(nx, 1.0 - py, f.clamp01(nx - py))
             };
             let c = if bt {
                 sigma_x
             } else {
-                sel(nx, py, clamp01(nx - 1.0 + py))
+                sel(nx, py, f.clamp01(nx - 1.0 + py))
             };
             return a.max(c);
         }
         while f.shadowed(q.0, q.1) && f.map.inside(q.0, q.1) {
-            *steps += 1;
+            f.step(steps);
             q.0 += du;
         }
         let t = f.shadowed(q.0 - 1, j - 1) || f.shadowed(q.0 + 1, j - 1);
         let bt = f.shadowed(q.0 - 1, j + 1) || f.shadowed(q.0 + 1, j + 1);
         return if t && bt {
-            clamp01(nx)
+            f.clamp01(nx)
         } else {
             (if t { py } else { 1.0 - py }).max(sigma_x)
         };
@@ -588,7 +656,7 @@ fn corridor<M: DepthTexels>(
     let (mut plus, mut minus) = ((f.i, f.j), (f.i, f.j));
     let (mut walk_plus, mut walk_minus) = (true, true);
     while ap && bp && am && bm && (walk_plus || walk_minus) {
-        *steps += 1;
+        f.step(steps);
         if walk_plus {
             plus = (plus.0 + axis.0, plus.1 + axis.1);
             if f.shadowed(plus.0, plus.1) {
