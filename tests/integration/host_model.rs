@@ -55,30 +55,33 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     assert!(random_dram >= m.stream_dram_cycles, "{m:?}");
 }
 
+/// `sism validate scenes/plate.toml` at `size` (width, height) with one timed frame and `extra`
+/// options into `out`; its `validate.csv`, after checking that it succeeded.
+fn validate_plate(out: &Path, size: (&str, &str), extra: &[&str]) -> String {
+    let mut args = vec![
+        "validate",
+        "scenes/plate.toml",
+        "--width",
+        size.0,
+        "--height",
+        size.1,
+        "--frames",
+        "1",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let run = sism(repo(), &args);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    std::fs::read_to_string(out.join("validate.csv")).unwrap()
+}
+
 #[test]
 fn validate_tabulates_predicted_against_measured_per_phase() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("v");
-    let run = sism(
-        repo(),
-        &[
-            "validate",
-            "scenes/plate.toml",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--threads",
-            "1,all",
-            "--frames",
-            "1",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-    );
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let csv = std::fs::read_to_string(out.join("validate.csv")).unwrap();
+    let csv = validate_plate(&out, ("64", "48"), &["--threads", "1,all"]);
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
@@ -178,4 +181,49 @@ fn validate_rejects_bad_input() {
         &["bad.toml", "cores"],
     );
     assert_clean_failure(&with(&["--machine", "/no/such/machine.toml"]), &["machine"]);
+}
+
+/// A step that runs once per depth map (light-samples: one map per light point) is one row, its
+/// model time the sum of its runs, as the host's is: the same work on both sides.
+#[test]
+fn validate_sums_a_repeated_step_into_one_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = validate_plate(
+        &dir.path().join("v"),
+        ("48", "36"),
+        &[
+            "--algos",
+            "light-samples",
+            "--param",
+            "samples_per_side=2",
+            "--threads",
+            "1",
+        ],
+    );
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let mut seen = std::collections::HashSet::new();
+    for r in &rows {
+        assert!(seen.insert(r[3]), "row {} twice in\n{csv}", r[3]);
+    }
+    // The phase's steps sum to the phase on both sides (each rounded to 1e-4 ms).
+    let of = |phase: &str, col: usize| -> f64 {
+        rows.iter()
+            .find(|r| r[3] == phase)
+            .and_then(|r| r[col].parse().ok())
+            .unwrap_or_else(|| panic!("no {phase} in\n{csv}"))
+    };
+    let phase = "light_points";
+    let steps: Vec<&Vec<&str>> = rows
+        .iter()
+        .filter(|r| r[3].starts_with("light_points.") && !r[3].ends_with(".outside"))
+        .collect();
+    assert!(steps.len() >= 2, "{csv}");
+    for col in [5, 6] {
+        let sum: f64 = steps.iter().map(|r| r[col].parse::<f64>().unwrap()).sum();
+        let whole = of(phase, col);
+        assert!(
+            (sum - whole).abs() <= 1e-3 * (1.0 + whole),
+            "column {col}: steps {sum} against the phase {whole}\n{csv}"
+        );
+    }
 }
