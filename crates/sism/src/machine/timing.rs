@@ -700,24 +700,31 @@ impl LineMapper {
         self.task_pages.clear();
         // Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
         let mut heads = [u64::MAX / 2; STREAMS];
-        let mut oldest = 0;
+        let (mut oldest, mut last) = (0, 0);
         task.lines.for_each(|line, write| {
-            let near = heads.iter().position(|&h| {
-                line != h && line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH
-            });
-            let stream = match near {
-                Some(k) => {
-                    heads[k] = line;
-                    true
+            // The heads within reach (the line itself included), as a bit mask: a branch-free
+            // loop the compiler vectorises, since the mapper does this for every access.
+            let within = |h: u64| line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH;
+            // Most accesses continue the stream the last one did: tried first.
+            let mut near = (within(heads[last]) as u32) << last;
+            if near == 0 {
+                for (k, &h) in heads.iter().enumerate() {
+                    near |= (within(h) as u32) << k;
                 }
-                None => {
-                    // The same line again keeps its stream's head; a new line starts a stream.
-                    if !heads.contains(&line) {
-                        heads[oldest] = line;
-                        oldest = (oldest + 1) % STREAMS;
-                    }
-                    false
-                }
+            }
+            let stream = if near != 0 {
+                // The stream found moves to the line; the same line again is no new line of its
+                // stream.
+                let k = near.trailing_zeros() as usize;
+                last = k;
+                let moved = heads[k] != line;
+                heads[k] = line;
+                moved
+            } else {
+                heads[oldest] = line;
+                last = oldest;
+                oldest = (oldest + 1) % STREAMS;
+                false
             };
             let before = self.ids.len();
             let id = self.ids.id(line);
