@@ -206,6 +206,7 @@ fn camera(eye: [f32; 3], look_at: [f32; 3], width: u32, height: u32) -> Camera {
 fn scene(meshes: Vec<Mesh>, camera: Camera) -> Scene {
     Scene {
         source: PathBuf::from("synthetic"),
+        origin: [0.0; 3],
         meshes,
         camera,
         light: Light {

@@ -1,12 +1,18 @@
-//! The fuzz suite: structured mutations of scene TOML, OBJ, machine TOML and records files, each case
-//! run through the library entry points the CLI uses (`Scene::load`, `render::render`,
-//! `MachineConfig::from_toml`, `machine::parse_records`, `machine::simulate`), asserting:
+//! The fuzz suite: structured mutations of scene TOML, OBJ, machine TOML, records files, frame traces,
+//! study directories (manifest, task results, job list, logs) and algorithm parameters at and beyond
+//! their registered ranges, each case run through the library entry points the CLI uses
+//! (`Scene::load`, `render::render`, `MachineConfig::from_toml`, `machine::parse_records`,
+//! `machine::simulate`, `trace::parse_over`/`check`/`write`, `study::slurm::run_task`/`collect`,
+//! `Algorithm::params`), asserting:
 //!
 //! * no panic (each case runs under `catch_unwind`; a failing input is written to
 //!   `target/fuzz-failures/` and the seed is printed);
 //! * an error, or a render whose every pixel is NaN exactly where the eye ray misses and otherwise in
 //!   [0, 1] or -1 (facing away), with finite statistics;
-//! * for counted renders and replays, cycle stacks that sum to each phase's and the frame's total.
+//! * for counted renders and replays, cycle stacks that sum to each phase's and the frame's total;
+//! * a trace that parses and checks writes text that parses back as the same trace;
+//! * a study that collects holds exactly the manifest's points, each with its configuration;
+//! * parameters that resolve are every one inside its registered range.
 //!
 //! `SISM_FUZZ_CASES` sets the number of cases (default 20,000; CI runs the default), `SISM_FUZZ_SEED`
 //! the seed (default fixed, so CI is repeatable; any seed reproduces its run exactly). The seed
@@ -22,6 +28,8 @@ use sism::exec::Exec;
 use sism::machine::{self, MachineConfig, MachineReport};
 use sism::render::{render, RenderOptions, RenderResult};
 use sism::scene::Scene;
+use sism::study::{scheduler, slurm};
+use sism::trace;
 
 /// As in the `sism` binary: counted frames are repeatable.
 #[global_allocator]
@@ -281,6 +289,10 @@ struct Corpus {
     records: Vec<u8>,
     /// Algorithms the renders pick from.
     algorithms: Vec<&'static Algorithm>,
+    /// The corpus plate at 16×12 (traces run over it).
+    plate: Scene,
+    /// A pristine study directory (two tasks, the first with its result), copied per case.
+    study: tempfile::TempDir,
 }
 
 fn corpus() -> Corpus {
@@ -320,14 +332,56 @@ fn corpus() -> Corpus {
             progress: false,
         },
     );
-    let records = machine::records::to_bytes(&machine::canonical(&r.records));
+    let canonical = machine::canonical(&r.records);
+    let records = machine::records::to_bytes(&canonical);
     assert!(!scenes.is_empty() && !objs.is_empty() && !machines.is_empty());
+    // A study of three points in two tasks, both run: what `collect` merges when nothing is wrong.
+    let study = tempfile::tempdir().unwrap();
+    let base = MachineConfig::larrabee_24();
+    let axes = machine::sweep::SweepAxes {
+        cores: vec![1, 2, 4],
+        threads: Vec::new(),
+        l2_kb: Vec::new(),
+    };
+    let configs = machine::sweep::configurations(&base, &axes).unwrap();
+    let label = sism::study::Label {
+        name: "plate".into(),
+        width: plate.camera.width,
+        height: plate.camera.height,
+    };
+    let job = slurm::JobOptions {
+        chunk: 2,
+        dry_run: true,
+        executable: Some(std::env::current_exe().unwrap()),
+        ..Default::default()
+    };
+    slurm::prepare(
+        study.path(),
+        &slurm::Study {
+            scene: &dir.join("plate.toml"),
+            label: &label,
+            algorithm: "sism",
+            params: "",
+            machine: "larrabee-24",
+            base: &base,
+            configs: &configs,
+            records: &canonical,
+        },
+        &job,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    for task in 0..2 {
+        slurm::run_task(study.path(), task).unwrap();
+    }
     Corpus {
         scenes,
         objs,
         machines,
         records,
         algorithms: algorithms::REGISTRY.to_vec(),
+        plate,
+        study,
     }
 }
 
@@ -340,6 +394,9 @@ struct Tally {
     counted: u64,
     replays: u64,
     skipped_large: u64,
+    traces: u64,
+    studies: u64,
+    params: u64,
 }
 
 /// Stacks sum to every phase's and the frame's cycles; times are finite.
@@ -455,7 +512,7 @@ fn run_case(
     t: &mut Tally,
     kind: &mut &'static str,
 ) -> Result<(), String> {
-    match rng.below(20) {
+    match rng.below(26) {
         // Scene TOML, structured (and sometimes text) mutations, with the corpus meshes.
         0..=6 => {
             *kind = "scene";
@@ -508,6 +565,19 @@ fn run_case(
                 }
             }
         }
+        20..=22 => {
+            *kind = "trace";
+            trace_case(rng, dir, c, t)
+        }
+        // One in 26: a collect that succeeds writes the study's CSV and two plots.
+        23 => {
+            *kind = "study";
+            study_case(rng, dir, c, t)
+        }
+        24 => {
+            *kind = "params";
+            params_case(rng, dir, c, t)
+        }
         // Records: damaged bytes, resealed (size and checksum made right) so the deep checks run.
         _ => {
             *kind = "records";
@@ -559,6 +629,287 @@ fn run_case(
     }
 }
 
+/// A statement a trace could hold, with numbers that are often awkward.
+fn random_statement(rng: &mut Rng) -> String {
+    let num = |rng: &mut Rng| -> String {
+        match rng.below(8) {
+            0 => "NaN".into(),
+            1 => rng
+                .pick(&["1e15", "-1e15", "1e16", "inf", "-0", "1e-45", "3.4e38"])
+                .to_string(),
+            2 => "x".into(),
+            _ => format!("{}", (rng.next() % 2001) as f64 / 100.0 - 10.0),
+        }
+    };
+    match rng.below(8) {
+        0 => "frame".into(),
+        1 => format!(
+            "camera {} {} {}  {} {} {}",
+            num(rng),
+            num(rng),
+            num(rng),
+            num(rng),
+            num(rng),
+            num(rng)
+        ),
+        2 => format!(
+            "fov {}",
+            rng.pick(&["0", "45", "179.9", "180", "-1", "NaN", "1e-3"])
+        ),
+        3 => format!("light {} {} {}  {}", num(rng), num(rng), num(rng), num(rng)),
+        4 => format!(
+            "mesh {} {} {} {}",
+            rng.pick(&["0", "1", "2", "7", "1048577", "-1", "18446744073709551616"]),
+            num(rng),
+            num(rng),
+            num(rng)
+        ),
+        5 => format!("scene {}", rng.pick(&["plate.toml", "a b.toml", ""])),
+        6 => rng.pick(&["# comment", "", "spin 3", "frame 2"]).to_string(),
+        _ => "frame".into(),
+    }
+}
+
+/// A trace over the corpus plate: parsed, checked, written and parsed back.
+fn trace_case(rng: &mut Rng, dir: &Path, c: &Corpus, t: &mut Tally) -> Result<(), String> {
+    let path = dir.join("case.trace");
+    let base = trace::orbit(Path::new("plate.toml"), &c.plate, 2 + rng.below(4), 30.0);
+    let mut lines: Vec<String> = trace::write(&base).unwrap().lines().map(str::to_string).collect();
+    for _ in 0..1 + rng.below(4) {
+        let k = rng.below(lines.len() + 1);
+        match rng.below(3) {
+            0 if k < lines.len() => {
+                lines.remove(k);
+            }
+            1 if k < lines.len() => lines[k] = random_statement(rng),
+            _ => lines.insert(k.max(1), random_statement(rng)),
+        }
+    }
+    let mut text = lines.join("\n");
+    if rng.chance(5) {
+        text = String::from_utf8_lossy(&mutate_text(rng, &text)).into_owned();
+    }
+    std::fs::write(&path, &text).unwrap();
+    let parsed = match trace::parse_over(&text, &path, &c.plate) {
+        Err(e) if e.message.is_empty() => return Err("an empty trace error".into()),
+        Err(_) => {
+            t.errors += 1;
+            return Ok(());
+        }
+        Ok(p) => p,
+    };
+    if let Err(e) = trace::check(&parsed, &c.plate) {
+        if e.is_empty() {
+            return Err("an empty check error".into());
+        }
+        t.errors += 1;
+        return Ok(());
+    }
+    t.traces += 1;
+    let written = trace::write(&parsed).map_err(|e| format!("a checked trace does not write: {e}"))?;
+    let back = trace::parse_over(&written, &path, &c.plate)
+        .map_err(|e| format!("a written trace does not parse back: {e}"))?;
+    if back != parsed {
+        return Err("a written trace parses back as another trace".into());
+    }
+    let first = &parsed.frames[0];
+    trace::apply(&c.plate, first).map_err(|e| format!("a checked frame does not apply: {e}"))?;
+    Ok(())
+}
+
+/// Copies the pristine study into `dir/study`, damages one of its files, then runs a task and
+/// collects: an error, or a merge of exactly the manifest's points.
+fn study_case(rng: &mut Rng, dir: &Path, c: &Corpus, t: &mut Tally) -> Result<(), String> {
+    let study = dir.join("study");
+    let _ = std::fs::remove_dir_all(&study);
+    copy_tree(c.study.path(), &study);
+    let target = match rng.below(5) {
+        0 => "manifest.toml",
+        1 | 2 => "results/task-0.json",
+        3 => "jobs.txt",
+        _ => "logs/task-1.out",
+    };
+    let path = study.join(target);
+    let text = std::fs::read_to_string(&path).unwrap_or_default();
+    let damaged = if target.ends_with(".json") && rng.chance(2) {
+        // A structured change: one value of one point replaced.
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let field = *rng.pick(&[
+            "cores",
+            "threads",
+            "l2_kb",
+            "index",
+            "name",
+            "steps",
+            "clock_ghz",
+            "frame",
+        ]);
+        let choices = [
+            serde_json::json!(0),
+            serde_json::json!(7),
+            serde_json::json!(-1),
+            serde_json::json!([]),
+            serde_json::json!("x"),
+            serde_json::json!(1e300),
+            serde_json::Value::Null,
+        ];
+        let value = rng.pick(&choices);
+        if let Some(p) = v["points"].get_mut(rng.below(2)) {
+            p[field] = value.clone();
+        }
+        serde_json::to_vec(&v).unwrap()
+    } else if target.starts_with("logs") || target == "jobs.txt" {
+        let mut b = mutate_text(rng, &format!("{text}123 array=0-1 submitted=1\nline\n"));
+        if rng.chance(3) {
+            b.extend(std::iter::repeat_n(b'x', 200_000));
+        }
+        b
+    } else {
+        mutate_text(rng, &text)
+    };
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(&path, &damaged).unwrap();
+    if target == "manifest.toml" {
+        if let Err(e) = slurm::run_task(&study, rng.below(3)) {
+            if e.to_string().is_empty() {
+                return Err("an empty run_task error".into());
+            }
+        }
+    }
+    let options = slurm::CollectOptions::default();
+    let sched = scheduler::Local::default();
+    match slurm::collect(&sched, &study, &options, &|_| {}, &mut |_, _| {}) {
+        Err(e) if e.to_string().is_empty() => Err("an empty collect error".into()),
+        Err(_) => {
+            t.errors += 1;
+            Ok(())
+        }
+        Ok(slurm::Collected::Complete(points)) => {
+            t.studies += 1;
+            let m = slurm::load_manifest(&study).map_err(|e| format!("collected, then: {e}"))?;
+            if points.len() != m.point.len() {
+                return Err(format!(
+                    "{} points merged for {} in the manifest",
+                    points.len(),
+                    m.point.len()
+                ));
+            }
+            for (p, mp) in points.iter().zip(&m.point) {
+                if (p.index, p.cores, p.threads, p.l2_kb) != (mp.index, mp.cores, mp.threads, mp.l2_kb)
+                    || p.steps.is_empty()
+                {
+                    return Err(format!("merged point {} is not the manifest's", p.index));
+                }
+            }
+            Ok(())
+        }
+        Ok(other) => Err(format!("collect without --resubmit returned {other:?}")),
+    }
+}
+
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        let dest = to.join(e.file_name());
+        if e.path().is_dir() {
+            copy_tree(&e.path(), &dest);
+        } else {
+            std::fs::copy(e.path(), dest).unwrap();
+        }
+    }
+}
+
+/// Parameters at and beyond their registered ranges: an error naming the key, or values all inside
+/// the ranges; a small render of those no larger than their defaults.
+fn params_case(rng: &mut Rng, dir: &Path, c: &Corpus, t: &mut Tally) -> Result<(), String> {
+    use sism::algorithms::params::ParamKind;
+    let algo = *rng.pick(&c.algorithms);
+    if algo.params.is_empty() {
+        return Ok(());
+    }
+    let mut given = Vec::new();
+    let mut cheap = true;
+    for _ in 0..1 + rng.below(2) {
+        let spec = rng.pick(algo.params);
+        let value: String = match spec.kind {
+            ParamKind::Int { min, max } | ParamKind::OddInt { min, max } => {
+                let v = *rng.pick(&[min, max, min - 1, max + 1, i64::MAX, i64::MIN, (min + max) / 2]);
+                match rng.below(8) {
+                    0 => rng
+                        .pick(&["NaN", "", " 3 ", "1e3", "0x10", "-0", "+1"])
+                        .to_string(),
+                    _ => v.to_string(),
+                }
+            }
+            ParamKind::Float { min, max } => {
+                let v = *rng.pick(&[
+                    min,
+                    max,
+                    min - 1e-9,
+                    max * 1.000001 + 1e-9,
+                    f64::MAX,
+                    -f64::MAX,
+                    0.5 * (min + max),
+                ]);
+                match rng.below(8) {
+                    0 => rng
+                        .pick(&["NaN", "inf", "-inf", "", "1e-400", "1e400", "-0"])
+                        .to_string(),
+                    _ => v.to_string(),
+                }
+            }
+            ParamKind::U64 => rng
+                .pick(&["0", "18446744073709551615", "18446744073709551616", "-1", "7"])
+                .to_string(),
+            ParamKind::Choice(names) => match rng.below(3) {
+                0 => names[0].to_uppercase(),
+                1 => "nonsense".into(),
+                _ => rng.pick(names).to_string(),
+            },
+        };
+        let default: Option<f64> = spec.default.parse().ok();
+        let as_number: Option<f64> = value.trim().parse().ok();
+        if let (Some(d), Some(v)) = (default, as_number) {
+            cheap &= v <= d;
+        }
+        given.push((spec.key.to_string(), value));
+    }
+    let params = match algo.params(&given) {
+        Err(e) if e.message.is_empty() || e.key.is_empty() => {
+            return Err("an error without key or message".into())
+        }
+        Err(_) => {
+            t.errors += 1;
+            return Ok(());
+        }
+        Ok(p) => p,
+    };
+    t.params += 1;
+    for (key, value) in params.iter() {
+        let spec = algo
+            .param(key)
+            .ok_or_else(|| format!("resolved an undeclared key {key}"))?;
+        spec.parse(&value.to_string())
+            .map_err(|e| format!("{} {key} resolved to {value}, outside its range: {e}", algo.name))?;
+    }
+    if cheap && rng.chance(4) {
+        let (_, text) = c.scenes.iter().find(|s| s.0 == "plate.toml").unwrap();
+        let scene = Scene::from_toml(text, &dir.join("plate.toml")).map_err(|e| e.to_string())?;
+        let r = render(
+            &scene,
+            algo,
+            &params,
+            &RenderOptions {
+                exec: Exec::Native,
+                progress: false,
+            },
+        );
+        t.renders += 1;
+        check_render(&r)?;
+    }
+    Ok(())
+}
+
 #[test]
 fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
     let cases: u64 = std::env::var("SISM_FUZZ_CASES")
@@ -602,7 +953,13 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
         if let Some(problem) = problem {
             let keep = failures_dir.join(format!("case-{case}"));
             let _ = std::fs::create_dir_all(&keep);
-            for f in ["scene.toml", "mesh.obj", "machine.toml", "records.bin"] {
+            for f in [
+                "scene.toml",
+                "mesh.obj",
+                "machine.toml",
+                "records.bin",
+                "case.trace",
+            ] {
                 let _ = std::fs::copy(dir.path().join(f), keep.join(f));
             }
             failures.push(format!(
@@ -616,14 +973,18 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
     }
     std::panic::set_hook(hook);
     eprintln!(
-        "fuzz: {} cases in {:.1} s: {} clean errors, {} renders ({} counted), {} replays, {} large scenes loaded only",
+        "fuzz: {} cases in {:.1} s: {} clean errors, {} renders ({} counted), {} replays, {} large scenes loaded only, \
+         {} traces round-tripped, {} studies collected, {} parameter sets resolved",
         t.cases,
         start.elapsed().as_secs_f64(),
         t.errors,
         t.renders,
         t.counted,
         t.replays,
-        t.skipped_large
+        t.skipped_large,
+        t.traces,
+        t.studies,
+        t.params
     );
     assert!(
         failures.is_empty(),
@@ -633,7 +994,12 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
     );
     // The mutations must reach both sides: inputs that load and render, and inputs that are refused.
     assert!(
-        t.renders > cases / 20 && t.errors > cases / 10 && t.replays > cases / 50,
+        t.renders > cases / 20
+            && t.errors > cases / 10
+            && t.replays > cases / 50
+            && t.traces > cases / 200
+            && t.studies > cases / 1000
+            && t.params > cases / 200,
         "{t:?}"
     );
 }

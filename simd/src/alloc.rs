@@ -44,6 +44,12 @@ pub struct LineAlloc<A>(pub A);
 static HOLDERS: AtomicUsize = AtomicUsize::new(0);
 /// Held blocks, a lock-free stack linked through the blocks themselves.
 static HELD: AtomicPtr<Held> = AtomicPtr::new(null_mut());
+/// Bytes of the held blocks.
+static HELD_BYTES: AtomicUsize = AtomicUsize::new(0);
+/// Most bytes held ([`HoldFrees::set_limit`]); a free past it goes back to the allocator at once.
+static HOLD_LIMIT: AtomicUsize = AtomicUsize::new(usize::MAX);
+/// Frees given back at once because the hold was full, since the first guard of the current hold.
+static RELEASED: AtomicUsize = AtomicUsize::new(0);
 /// Serialises the first guard's start against the last guard's release, so blocks freed during one
 /// hold are never released into a hold that has already begun.
 static HOLD_LOCK: Mutex<()> = Mutex::new(());
@@ -90,6 +96,16 @@ unsafe impl<A: GlobalAlloc> GlobalAlloc for LineAlloc<A> {
         let inner = inner_layout(layout);
         if HOLDERS.load(Ordering::Acquire) == 0 {
             // SAFETY: `ptr` came from `self.0` with `inner` (same mapping of the same layout).
+            unsafe { self.0.dealloc(ptr, inner) };
+            return;
+        }
+        // Past the limit the block goes back now: memory stays bounded (a frame that frees more than
+        // the limit would otherwise exhaust it), at the price of addresses that may be reused.
+        let held = HELD_BYTES.fetch_add(inner.size(), Ordering::Relaxed);
+        if held.saturating_add(inner.size()) > HOLD_LIMIT.load(Ordering::Relaxed) {
+            HELD_BYTES.fetch_sub(inner.size(), Ordering::Relaxed);
+            RELEASED.fetch_add(1, Ordering::Relaxed);
+            // SAFETY: as in the unheld case above.
             unsafe { self.0.dealloc(ptr, inner) };
             return;
         }
@@ -152,8 +168,24 @@ impl HoldFrees {
     /// Starts holding frees (nested and concurrent guards are fine).
     pub fn new() -> HoldFrees {
         let _l = HOLD_LOCK.lock().unwrap_or_else(|e| e.into_inner());
-        HOLDERS.fetch_add(1, Ordering::AcqRel);
+        if HOLDERS.fetch_add(1, Ordering::AcqRel) == 0 {
+            RELEASED.store(0, Ordering::Relaxed);
+        }
         HoldFrees(())
+    }
+
+    /// Holds at most `bytes` of freed blocks (all guards; default unlimited): a free past it is given
+    /// back at once, so a frame that frees more than memory holds still completes, but the addresses
+    /// of its later blocks may repeat earlier ones (then the frame's cache-line ids, and the counters
+    /// the model derives from them, may differ between runs). [`HoldFrees::released`] counts those
+    /// frees.
+    pub fn set_limit(bytes: usize) {
+        HOLD_LIMIT.store(bytes, Ordering::Relaxed);
+    }
+
+    /// Frees given back at once because the hold was at its limit, since the current hold began.
+    pub fn released() -> usize {
+        RELEASED.load(Ordering::Relaxed)
     }
 
     /// Blocks currently held (a walk of the list; for tests and diagnostics).
@@ -191,6 +223,7 @@ impl Drop for HoldFrees {
             // recorded inner layout; it is released exactly once (the list was taken atomically).
             unsafe {
                 let Held { next, size, align } = p.read();
+                HELD_BYTES.fetch_sub(size, Ordering::Relaxed);
                 let layout = Layout::from_size_align_unchecked(size, align);
                 release(p.cast(), layout);
                 p = next;

@@ -71,7 +71,17 @@ fn parse_spp_list(text: &str) -> anyhow::Result<Vec<String>> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    ensure!(a.repeats >= 1, "--repeats must be at least 1");
+    ensure!(
+        (1..=bench::MAX_REPEATS).contains(&a.repeats),
+        "--repeats {}: 1 to {}",
+        a.repeats,
+        bench::MAX_REPEATS
+    );
+    ensure!(
+        a.sim_budget_ms.is_finite() && a.sim_budget_ms >= 0.0,
+        "--sim-budget-ms {}: a finite number of milliseconds, at least 0",
+        a.sim_budget_ms
+    );
     let spp_list = parse_spp_list(&a.spp_list)?;
     ensure!(
         a.truth.is_some() || (1..=MAX_SPP).contains(&a.truth_spp),
@@ -101,8 +111,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 image.width,
                 image.height
             );
-            pfm::write_pfm(&truth_dir.join("visibility.pfm"), &image)
-                .with_context(|| format!("cannot write {}", truth_dir.join("visibility.pfm").display()))?;
+            pfm::write_pfm(&truth_dir.join("visibility.pfm"), &image)?;
             pictures::write_visibility_png(&truth_dir.join("visibility.png"), &image)?;
             let info = TruthInfo {
                 spp: None,
@@ -114,7 +123,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         None => {
             if progress {
-                eprintln!("truth: reference at {} spp, {width}x{height}", a.truth_spp);
+                note!("truth: reference at {} spp, {width}x{height}", a.truth_spp);
             }
             let (result, info) = bench::render_truth(&scene, a.truth_spp, progress)?;
             sism::render::write_outputs(&truth_dir, &scene, &result)?;
@@ -136,7 +145,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             config,
             a.sim_budget_ms,
             progress,
-        );
+        )
+        .context("--sim-budget-ms")?;
     }
     write_file(&out.join("bench.csv"), &bench::to_csv(&report))?;
     write_file(&out.join("pareto.md"), &bench::pareto_markdown(&report))?;
@@ -147,7 +157,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     sism::output::plots::bench::bench(&out.join("bench.png"), &report)?;
     print_stdout(to_table(&report).trim_end())?;
     if progress {
-        eprintln!("wrote {}", out.display());
+        note!("wrote {}", out.display());
     }
     Ok(())
 }

@@ -50,7 +50,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             facts.clock_ghz,
             fitted.table().trim_end()
         ))?;
-        eprintln!("wrote {}", a.out.display());
+        note!("wrote {}", a.out.display());
     }
     Ok(())
 }

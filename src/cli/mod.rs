@@ -4,6 +4,23 @@
 //! Exit codes: 0 on success (and for `--help`, `--version`), 1 for any error — a malformed command
 //! line as much as bad input — with one `error:` message on stderr naming what and where.
 
+/// `eprintln!` that cannot panic: a closed or full stderr loses the note, never the run (exit codes
+/// stay 0 or 1).
+macro_rules! note {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
+/// `eprint!` that cannot panic (see [`note!`]).
+macro_rules! note_inline {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($t)*);
+    }};
+}
+
 mod algorithms;
 mod bench;
 mod calibrate;
@@ -109,7 +126,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            note!("error: {err:#}");
             ExitCode::FAILURE
         }
     }
@@ -119,9 +136,11 @@ pub fn main() -> ExitCode {
 /// the reader has what it wanted.
 fn print_stdout(text: &str) -> anyhow::Result<()> {
     use std::io::Write;
-    match writeln!(std::io::stdout().lock(), "{text}") {
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        other => Ok(other?),
+        Err(e) => Err(anyhow::anyhow!("cannot write to stdout: {e}")),
+        Ok(()) => Ok(()),
     }
 }
 
@@ -204,7 +223,7 @@ impl ParamArgs {
                 );
                 given.push((key.to_string(), value.clone()));
             } else {
-                eprintln!("note: --{key} does not apply to {}: ignored", algo.name);
+                note!("note: --{key} does not apply to {}: ignored", algo.name);
             }
         }
         algo.params(&given).map_err(|e| anyhow::anyhow!("--param: {e}"))
@@ -243,7 +262,7 @@ fn create_dir(dir: &Path) -> anyhow::Result<PathBuf> {
 
 /// Writes `text` to `path`, with an error naming it.
 fn write_file(path: &Path, text: &str) -> anyhow::Result<()> {
-    std::fs::write(path, text).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))
+    Ok(sism::output::write_atomic(path, text.as_bytes())?)
 }
 
 #[cfg(test)]

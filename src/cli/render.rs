@@ -65,9 +65,9 @@ depend on the host's state)"
         machine::write_config(&a.out, &config)?;
         machine::save_records(&a.out.join("records.bin"), &r.records)?;
         if !a.quiet {
-            eprint!("{}", r.result.stats.to_text());
-            eprint!("{}", r.report.to_table());
-            eprintln!("wrote {}", a.out.display());
+            note_inline!("{}", r.result.stats.to_text());
+            note_inline!("{}", r.report.to_table());
+            note!("wrote {}", a.out.display());
         }
         return Ok(());
     }
@@ -82,11 +82,11 @@ depend on the host's state)"
     };
     render::write_outputs(&a.out, &scene, &result)?;
     if result.receivers.pixels.iter().all(|p| p.is_none()) {
-        eprintln!("warning: no pixel sees a surface: the image holds only misses (check the camera)");
+        note!("warning: no pixel sees a surface: the image holds only misses (check the camera)");
     }
     if !a.quiet {
-        eprint!("{}", result.stats.to_text());
-        eprintln!("wrote {}", a.out.display());
+        note_inline!("{}", result.stats.to_text());
+        note!("wrote {}", a.out.display());
     }
     Ok(())
 }

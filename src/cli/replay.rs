@@ -36,7 +36,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     machine::write_config(&a.out, &config)?;
     if !a.quiet {
         print_stdout(report.to_table().trim_end())?;
-        eprintln!("wrote {}", a.out.display());
+        note!("wrote {}", a.out.display());
     }
     Ok(())
 }

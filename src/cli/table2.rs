@@ -58,7 +58,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .file_stem()
             .map_or_else(|| format!("workload{k}"), |s| s.to_string_lossy().into_owned());
         if !a.quiet {
-            eprintln!(
+            note!(
                 "[{}/{}] {name}: {}x{}, counting and timing on {}",
                 k + 1,
                 workloads.len(),
@@ -81,7 +81,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     write_file(&out.join("table2.md"), &md)?;
     print_stdout(&md)?;
     if !a.quiet {
-        eprintln!("wrote {}", out.display());
+        note!("wrote {}", out.display());
     }
     Ok(())
 }

@@ -8,7 +8,7 @@ use anyhow::Context;
 use sism::scene::Scene;
 use sism::trace::{self, run};
 
-use super::{algorithm, algorithm_values, create_dir, write_file, ParamArgs};
+use super::{algorithm, algorithm_values, write_file, ParamArgs};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -99,8 +99,23 @@ fn make(a: MakeArgs) -> anyhow::Result<()> {
         "walk" => trace::walk(&scene_path, &scene, n, a.amount),
         _ => trace::light_sweep(&scene_path, &scene, n, a.amount),
     };
-    write_file(&a.out, &trace::write(&t))?;
-    eprintln!("wrote {} ({} frames)", a.out.display(), t.frames.len());
+    // What is written must run: every frame renderable, and the text reading back as these frames.
+    trace::check(&t, &scene).map_err(|e| {
+        anyhow::anyhow!(
+            "the {} trace cannot be written: {e} (--amount {} is too large for this scene?)",
+            a.kind,
+            a.amount
+        )
+    })?;
+    let text = trace::write(&t).map_err(|e| anyhow::anyhow!("{} cannot be written: {e}", a.out.display()))?;
+    let back = trace::parse_over(&text, &a.out, &scene)?;
+    anyhow::ensure!(
+        back == t,
+        "{}: the trace does not read back as written (a bug: please report it)",
+        a.out.display()
+    );
+    write_file(&a.out, &text)?;
+    note!("wrote {} ({} frames)", a.out.display(), t.frames.len());
     Ok(())
 }
 
@@ -114,7 +129,6 @@ fn run_trace(a: RunArgs) -> anyhow::Result<()> {
         .map(super::resolve_machine)
         .transpose()
         .context("--machine")?;
-    let out = create_dir(&a.out)?;
     let result = run::run(
         &a.trace,
         &t,
@@ -124,13 +138,13 @@ fn run_trace(a: RunArgs) -> anyhow::Result<()> {
             params: &params,
             machine: config.as_ref(),
             reference: a.reference.as_deref(),
-            out: &out,
+            out: &a.out,
             progress: !a.quiet,
         },
     )?;
     if !a.quiet {
-        eprint!("{}", result.summary);
-        eprintln!("wrote {}", out.display());
+        note_inline!("{}", result.summary);
+        note!("wrote {}", a.out.display());
     }
     Ok(())
 }

@@ -133,7 +133,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     sism::output::plots::validate::predicted_vs_measured(&out.join("validate.png"), &rows, a.tolerance)?;
     if !a.quiet {
         print_stdout(md.trim_end())?;
-        eprintln!("wrote {}", out.display());
+        note!("wrote {}", out.display());
     }
     Ok(())
 }

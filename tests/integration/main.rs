@@ -20,5 +20,6 @@ mod shared_scenes;
 mod sism;
 mod ssmm;
 mod study_slurm;
+mod surfaces;
 mod util;
 mod workloads;

@@ -303,7 +303,7 @@ fn bad_study_directories_give_clear_errors() {
     std::fs::write(a.join("records.bin"), &bad).unwrap();
     assert_clean_failure(&run("a", "0"), &["records file", "records.bin"]);
     std::fs::write(a.join("records.bin"), &records[..records.len() / 3]).unwrap();
-    assert_clean_failure(&run("a", "0"), &["records.bin", "truncated"]);
+    assert_clean_failure(&run("a", "0"), &["records.bin", "bytes, but the manifest's are"]);
     std::fs::write(a.join("records.bin"), &records).unwrap();
     ok(&run("a", "0"), "task 0 after the repairs");
 
@@ -428,7 +428,7 @@ fn dry_run_writes_the_array_script() {
     );
     assert_clean_failure(
         &study(dir, "c", "1,2,4", &["--backend", "slurm", "--chunk", "0"]),
-        &["--chunk must be at least 1"],
+        &["--chunk 0: points per array task, 1 to"],
     );
     assert_clean_failure(
         &study(dir, "t", "1,2,4", &["--backend", "slurm", "--time", "soon"]),

@@ -205,7 +205,10 @@ pub fn simulate_rows(
     config: &crate::machine::MachineConfig,
     budget_ms: f64,
     progress: bool,
-) {
+) -> Result<(), BenchError> {
+    if !(budget_ms.is_finite() && budget_ms >= 0.0) {
+        return Err(BenchError::Budget(budget_ms));
+    }
     let bar = crate::progress::bar(candidates.len() as u64, "simulate", progress);
     for (c, r) in candidates.iter().zip(rows.iter_mut()) {
         bar.set_message(format!("{} {}", c.algorithm.name, c.setting));
@@ -216,6 +219,7 @@ pub fn simulate_rows(
         bar.inc(1);
     }
     bar.finish_and_clear();
+    Ok(())
 }
 
 /// The Pareto table (Markdown): every row by rising median time, the front marked.
@@ -273,12 +277,21 @@ pub struct BenchReport {
 const TIMING: &str = "median over repeats of the render's time.total stat: host wall time of render() \
 after scene load, including the reference's BVH build and SISM's scene preparation";
 
+/// Most timed runs per configuration (their times are kept for the median).
+pub const MAX_REPEATS: u32 = 1000;
+
 /// A failure of the comparison.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     /// `repeats` is 0.
     #[error("repeats must be at least 1")]
     NoRepeats,
+    /// `repeats` is above [`MAX_REPEATS`].
+    #[error("repeats {0}: at most {MAX_REPEATS} timed runs per configuration")]
+    TooManyRepeats(u32),
+    /// The simulation budget is not a number of milliseconds.
+    #[error("the simulation budget {0} ms must be a finite number of milliseconds, at least 0")]
+    Budget(f64),
     /// No candidate to bench.
     #[error("nothing to bench")]
     NoCandidates,
@@ -319,6 +332,9 @@ pub fn bench_scene(
 ) -> Result<BenchReport, BenchError> {
     if repeats == 0 {
         return Err(BenchError::NoRepeats);
+    }
+    if repeats > MAX_REPEATS {
+        return Err(BenchError::TooManyRepeats(repeats));
     }
     if candidates.is_empty() {
         return Err(BenchError::NoCandidates);

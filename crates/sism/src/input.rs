@@ -38,6 +38,7 @@ pub fn read_file(path: &Path, what: &str, max_bytes: u64) -> Result<Vec<u8>, Inp
         });
     }
     let file = std::fs::File::open(path).map_err(|e| InputError::io(path, e))?;
+    crate::output::guard::note_input(path, what);
     let mut bytes = Vec::with_capacity(meta.len() as usize);
     file.take(max_bytes + 1)
         .read_to_end(&mut bytes)
@@ -66,6 +67,11 @@ pub fn read_text(path: &Path, what: &str, max_bytes: u64) -> Result<String, Inpu
             offset: at,
         }
     })
+}
+
+/// What kind of file `meta` describes, in words ("regular file", "directory", "FIFO", …).
+pub fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    file_kind(meta)
 }
 
 /// What kind of file `meta` describes, in words.

@@ -61,7 +61,12 @@ pub fn render_prepared(
     // Counted frames hold frees: with `LineAlloc` as the global allocator no address is reused within
     // the frame, so its records (and the simulated cycles) are the same in every run and for any host
     // thread count.
-    let _hold = (options.exec == Exec::Counting).then(sism_simd::HoldFrees::new);
+    // The hold is bounded ([`counted_hold_limit`]): a frame that frees more than that (thousands of
+    // large depth maps) completes instead of exhausting memory, and says so (`counting.frees_released`).
+    let _hold = (options.exec == Exec::Counting).then(|| {
+        sism_simd::HoldFrees::set_limit(counted_hold_limit());
+        sism_simd::HoldFrees::new()
+    });
     let mut log = FrameLog::new(options.exec);
     let mut stats = StatsReport::default();
     stats
@@ -157,6 +162,16 @@ pub fn render_prepared(
         );
     }
     log.untimed_rows(&mut stats);
+    if options.exec == Exec::Counting {
+        stats.stat(
+            "counting.frees_released",
+            sism_simd::HoldFrees::released() as f64,
+            "frees",
+            "frees given back during the counted frame because the held blocks reached the hold limit \
+             (half the host's memory): when not 0, addresses may have been reused and the simulated \
+             figures may differ between runs",
+        );
+    }
     stats.stat(
         "time.total",
         t0.elapsed().as_secs_f64() * 1e3,
@@ -168,6 +183,22 @@ pub fn render_prepared(
         visibility,
         stats,
         records: log.take_records(),
+    }
+}
+
+/// Most bytes of freed blocks a counted frame holds: half the host's physical memory (`/proc/meminfo`),
+/// 8 GiB where that cannot be read.
+pub fn counted_hold_limit() -> usize {
+    let total_kib = crate::input::read_text(std::path::Path::new("/proc/meminfo"), "memory facts", 1 << 20)
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find_map(|l| l.strip_prefix("MemTotal:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        });
+    match total_kib {
+        Some(k) => (k.saturating_mul(1024) / 2).min(usize::MAX as u64) as usize,
+        None => 8 << 30,
     }
 }
 
@@ -339,7 +370,7 @@ pub fn render_on_machine(
 pub fn write_outputs(dir: &Path, scene: &Scene, result: &RenderResult) -> crate::Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::create_dir(dir, e))?;
     let pfm_path = dir.join("visibility.pfm");
-    pfm::write_pfm(&pfm_path, &result.visibility).map_err(|e| crate::Error::write(pfm_path, e))?;
+    pfm::write_pfm(&pfm_path, &result.visibility)?;
     pictures::write_visibility_png(&dir.join("visibility.png"), &result.visibility)?;
     let (lo, hi) = scene.bounds();
     pictures::write_shaded_png(

@@ -101,9 +101,9 @@ impl StatsReport {
         });
         let json_path = dir.join("stats.json");
         let text = serde_json::to_string_pretty(&json).expect("a JSON value serialises") + "\n";
-        std::fs::write(&json_path, text).map_err(|e| crate::Error::write(json_path, e))?;
+        crate::output::write_atomic(&json_path, text.as_bytes())?;
         let text_path = dir.join("stats.txt");
-        std::fs::write(&text_path, self.to_text()).map_err(|e| crate::Error::write(text_path, e))?;
+        crate::output::write_atomic(&text_path, self.to_text().as_bytes())?;
         Ok(())
     }
 }

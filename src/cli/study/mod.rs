@@ -94,6 +94,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
 fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     if a.backend == Backend::Local {
         a.slurm.reject_for_local()?;
+        sism::study::slurm::refuse_for_local(&a.out)?;
     }
     let Some(scene_path) = a.scene.clone() else {
         anyhow::bail!(
@@ -168,7 +169,7 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     studies::write_outputs(&out, &label, &base, &points)?;
     if !a.quiet {
         print_stdout(&studies::table(&points))?;
-        eprintln!("wrote {}", out.display());
+        note!("wrote {}", out.display());
     }
     Ok(())
 }

@@ -121,7 +121,7 @@ pub struct SubmitArgs {
 fn notes(quiet: bool) -> impl FnMut(Note, &str) {
     move |kind, line| {
         if !quiet || kind == Note::Problem {
-            eprintln!("{line}");
+            note!("{line}");
         }
     }
 }
@@ -134,7 +134,7 @@ fn report_submitted(s: &Submitted, dir: &std::path::Path, quiet: bool) -> anyhow
         }
         Submitted::Job { id, tasks } => {
             if !quiet {
-                eprintln!(
+                note!(
                     "submitted job {id}: tasks {tasks}; follow with `sism study collect {} --watch`",
                     dir.display()
                 );
@@ -155,7 +155,7 @@ pub fn prepare_and_submit(
     let (dir, m) = slurm::prepare(out, s, &options, &mut notes(quiet))?;
     if options.dry_run {
         if !quiet {
-            eprintln!(
+            note!(
                 "dry run: not submitted; submit with `sism study submit {0}` (or `sbatch {0}/study.sbatch`), \
                  then `sism study collect {0} --watch`",
                 dir.display()
@@ -171,7 +171,7 @@ pub fn prepare_and_submit(
 pub fn run_task(a: RunArgs) -> anyhow::Result<()> {
     let run = slurm::run_task(&a.dir, a.task)?;
     if !a.quiet {
-        eprintln!(
+        note!(
             "task {}: {} in {:.2} s: wrote {}",
             a.task,
             run.span,
@@ -209,7 +209,7 @@ pub fn collect(a: CollectArgs) -> anyhow::Result<()> {
             if !a.quiet {
                 super::print_stdout(&sism::study::table(&points))?;
                 let dir = std::fs::canonicalize(&a.dir).unwrap_or(a.dir.clone());
-                eprintln!("wrote {}", dir.display());
+                note!("wrote {}", dir.display());
             }
             Ok(())
         }

@@ -253,7 +253,7 @@ impl MachineReport {
 /// Writes the resolved configuration as `machine.toml` into `dir`.
 pub fn write_config(dir: &Path, config: &MachineConfig) -> crate::Result<()> {
     let path = dir.join("machine.toml");
-    std::fs::write(&path, config.to_toml()).map_err(|e| crate::Error::write(path, e))
+    crate::output::write_atomic(&path, config.to_toml().as_bytes())
 }
 
 pub use records::{canonical, load_records, parse_records, save_records, CanonicalRecords};

@@ -135,7 +135,7 @@ pub fn to_bytes(records: &CanonicalRecords) -> Vec<u8> {
 
 /// Writes `records` to `path` (see the module docs for the format).
 pub fn save_records(path: &Path, records: &CanonicalRecords) -> crate::Result<()> {
-    std::fs::write(path, to_bytes(records)).map_err(|e| crate::Error::write(path, e))
+    crate::output::write_atomic(path, &to_bytes(records))
 }
 
 /// Reads a records file written by [`save_records`] (a regular file of at most

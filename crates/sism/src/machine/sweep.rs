@@ -38,6 +38,20 @@ pub fn configurations(base: &MachineConfig, axes: &SweepAxes) -> Result<Vec<Mach
     let cores = or_base(&axes.cores, base.cores);
     let threads = or_base(&axes.threads, base.threads_per_core);
     let l2s = or_base(&axes.l2_kb, base.l2_kb);
+    // The count before anything is allocated: three long lists multiply.
+    let count = [cores.len(), threads.len(), l2s.len()]
+        .iter()
+        .try_fold(1usize, |a, &n| a.checked_mul(n))
+        .filter(|&n| n <= MAX_POINTS)
+        .ok_or_else(|| {
+            format!(
+                "the sweep has {} × {} × {} points (cores × threads × L2 sizes); at most {MAX_POINTS} are accepted",
+                cores.len(),
+                threads.len(),
+                l2s.len()
+            )
+        })?;
+    debug_assert!(count >= 1);
     let mut out = Vec::with_capacity(cores.len() * threads.len() * l2s.len());
     for &t in &threads {
         for &l2 in &l2s {
@@ -55,6 +69,9 @@ pub fn configurations(base: &MachineConfig, axes: &SweepAxes) -> Result<Vec<Mach
     }
     Ok(out)
 }
+
+/// Most points a sweep may have (the product of its axes' lengths): each is a replay of the frame.
+pub const MAX_POINTS: usize = 10_000;
 
 /// Line accesses up to which [`run`] decodes the records once and shares the ids between the
 /// configurations (4 bytes each: 2 GiB at this bound); past it every configuration decodes the

@@ -1,24 +1,50 @@
 //! Files a render writes (CONTRACTS.md "Images written by a render") and reads back. The statistics'
 //! files are written by [`crate::stats::StatsReport::write`].
 
+pub mod guard;
 pub mod pfm;
 pub mod pictures;
 pub mod plots;
+pub mod staged;
 
 use std::io::Write;
 use std::path::Path;
 
 /// Writes `bytes` to `path` whole or not at all: through a temporary file in the same folder, synced
 /// and renamed over `path`, so that no reader (a later run, a watching `collect`) sees a partial
-/// file under the name.
+/// file under the name. Every file sism writes goes through here, so here is where it refuses to
+/// write over its own inputs ([`guard`]: a file this process read, or one inside a folder it reads)
+/// and to replace anything but a regular file (a device, a FIFO, a folder at that name).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> crate::Result<()> {
-    let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    guard::check_output(path)?;
+    // What the name holds now (through a link): only a regular file may be replaced.
+    if let Ok(meta) = std::fs::metadata(path) {
+        if !meta.is_file() {
+            return Err(crate::Error::write(
+                path,
+                std::io::Error::other(format!(
+                    "it is a {}, not a regular file; refusing to replace it",
+                    crate::input::kind_of(&meta)
+                )),
+            ));
+        }
+    }
+    // A link is written through: its target is the file replaced, the link stays.
+    let target = if path.is_symlink() {
+        std::fs::canonicalize(path).map_err(|e| crate::Error::write(path, e))?
+    } else {
+        path.to_path_buf()
+    };
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy())
+        .unwrap_or_default();
+    let tmp = target.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
     let write = || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, &target)
     };
     write().map_err(|e| {
         let _ = std::fs::remove_file(&tmp);

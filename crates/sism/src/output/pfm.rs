@@ -1,14 +1,13 @@
 //! Portable float map, one channel ("Pf"), little-endian (negative scale), rows bottom to top as the
 //! format defines. sism's visibility images are kept top to bottom in memory and flipped here.
 
-use std::io::Write;
 use std::path::Path;
 
 use crate::error::InputError;
 use crate::frame::VisibilityImage;
 
-/// Writes `image` as a one-channel little-endian PFM.
-pub fn write_pfm(path: &Path, image: &VisibilityImage) -> std::io::Result<()> {
+/// Writes `image` as a one-channel little-endian PFM (whole or not at all: [`super::write_atomic`]).
+pub fn write_pfm(path: &Path, image: &VisibilityImage) -> crate::Result<()> {
     let mut bytes = format!("Pf\n{} {}\n-1.0\n", image.width, image.height).into_bytes();
     bytes.reserve(image.values.len() * 4);
     for row in image.values.chunks_exact(image.width as usize).rev() {
@@ -16,7 +15,7 @@ pub fn write_pfm(path: &Path, image: &VisibilityImage) -> std::io::Result<()> {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::File::create(path)?.write_all(&bytes)
+    super::write_atomic(path, &bytes)
 }
 
 /// Reads a one-channel PFM of either byte order into a top-to-bottom [`VisibilityImage`].

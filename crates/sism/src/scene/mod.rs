@@ -30,6 +30,12 @@ pub const MAX_COORDINATE: f32 = 1e15;
 /// Largest accepted triangle count of a scene (2^27): triangle indices and the rasterizer's packed
 /// ids are 32-bit, and every algorithm keeps tens of bytes per triangle.
 pub const MAX_TRIANGLES: usize = 1 << 27;
+/// A scene is rebased ([`Scene::origin`]) when its camera's look-at point is further from the world
+/// origin than this many times the eye's distance to it: f32 keeps about 7 digits, so a scene a few
+/// hundred thousand units from the origin but a few units across would otherwise lose its detail
+/// to rounding (and every offset scaled by coordinates' magnitudes would swamp it).
+pub const REBASE_FACTOR: f64 = 16.0;
+
 /// Field of view bounds, degrees: narrower or wider views have no usable projection in f32.
 pub const FOV_RANGE_DEG: (f32, f32) = (1e-3, 179.999);
 
@@ -202,12 +208,18 @@ impl Light {
     }
 }
 
-/// A scene ready to render: meshes in world space, camera and light.
+/// A scene ready to render: meshes, camera and light, in world units relative to [`Scene::origin`].
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// The scene file it came from (for messages and statistics).
     pub source: PathBuf,
-    /// The meshes, in world space.
+    /// Where the scene's coordinates start, in the file's world coordinates: `[0, 0, 0]` for most
+    /// scenes; the camera's look-at point for a scene viewed far from the world origin (beyond
+    /// [`REBASE_FACTOR`] times the viewing distance). Every position below is `world − origin`,
+    /// computed in f64 from the file's values before rounding to f32, so a scene keeps its detail
+    /// wherever it sits. Visibility does not depend on it.
+    pub origin: [f64; 3],
+    /// The meshes, in world units relative to `origin`.
     pub meshes: Vec<Mesh>,
     /// The camera.
     pub camera: Camera,
@@ -224,11 +236,20 @@ impl Scene {
 
     /// Parses scene TOML `text` as if read from `path` (meshes resolve relative to its folder).
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene, InputError> {
-        let file: SceneFile = toml::from_str(text).map_err(|e| InputError::Toml {
+        let toml_error = |e: toml::de::Error| InputError::Toml {
             path: path.into(),
             message: e.to_string().trim_end().to_string(),
-        })?;
-        file.build(path)
+        };
+        // Parsed as written first, so every error carries its line and column.
+        let file: SceneFile = toml::from_str(text).map_err(toml_error)?;
+        let Some(origin) = rebase_origin(&file.camera) else {
+            return file.build(path, [0.0; 3]);
+        };
+        // Far from the origin: every absolute position moved by −origin in f64, then read as f32.
+        let mut table: toml::Table = toml::from_str(text).map_err(toml_error)?;
+        rebase_table(&mut table, origin);
+        let file = SceneFile::deserialize(toml::Value::Table(table)).map_err(toml_error)?;
+        file.build(path, origin)
     }
 
     /// A scene built in code from the caller's own geometry (an engine has its meshes in memory, not
@@ -280,6 +301,7 @@ impl Scene {
         }
         Ok(Scene {
             source: path,
+            origin: [0.0; 3],
             meshes,
             camera,
             light,
@@ -457,8 +479,76 @@ fn check_positions(mesh: &Mesh, origin: &str) -> Result<(), String> {
     }
 }
 
+/// The origin a scene viewed by `camera` is rebased to ([`Scene::origin`]), if it needs one.
+fn rebase_origin(camera: &Camera) -> Option<[f64; 3]> {
+    let at = camera.look_at.map(f64::from);
+    let eye = camera.eye.map(f64::from);
+    let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let view = norm([eye[0] - at[0], eye[1] - at[1], eye[2] - at[2]]);
+    (view > 0.0 && norm(at) > REBASE_FACTOR * view).then_some(at)
+}
+
+/// The keys of a scene file that hold absolute positions (not sizes or directions), by table.
+const POSITION_KEYS: [(&str, &str); 9] = [
+    ("camera", "eye"),
+    ("camera", "look_at"),
+    ("light", "center"),
+    ("mesh", "translate"),
+    ("quad", "corner"),
+    ("box", "min"),
+    ("box", "max"),
+    ("sphere", "center"),
+    ("disk", "center"),
+];
+
+/// Moves every absolute position of a parsed scene file by `−origin`, in f64 (the TOML's own
+/// precision), so the f32 values read from it keep their digits. Values the first, typed parse
+/// accepted are arrays of three numbers; anything else is left for the typed parse to report.
+fn rebase_table(table: &mut toml::Table, origin: [f64; 3]) {
+    let shift = |v: &mut toml::Value| {
+        let Some(a) = v.as_array_mut() else { return };
+        if a.len() != 3 {
+            return;
+        }
+        for (x, o) in a.iter_mut().zip(origin) {
+            let value = match x {
+                toml::Value::Float(f) => *f,
+                toml::Value::Integer(i) => *i as f64,
+                _ => return,
+            };
+            *x = toml::Value::Float(value - o);
+        }
+    };
+    for (section, key) in POSITION_KEYS {
+        match table.get_mut(section) {
+            Some(toml::Value::Table(t)) => {
+                if let Some(v) = t.get_mut(key) {
+                    shift(v);
+                }
+            }
+            Some(toml::Value::Array(entries)) => {
+                for e in entries.iter_mut() {
+                    if let Some(v) = e.as_table_mut().and_then(|t| t.get_mut(key)) {
+                        shift(v);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    // A mesh without `translate` sits at the world origin: it gains the translation −origin.
+    if let Some(toml::Value::Array(meshes)) = table.get_mut("mesh") {
+        for m in meshes.iter_mut().filter_map(|m| m.as_table_mut()) {
+            if !m.contains_key("translate") {
+                let t = origin.iter().map(|o| toml::Value::Float(-o)).collect();
+                m.insert("translate".into(), toml::Value::Array(t));
+            }
+        }
+    }
+}
+
 impl SceneFile {
-    fn build(self, path: &Path) -> Result<Scene, InputError> {
+    fn build(self, path: &Path, origin: [f64; 3]) -> Result<Scene, InputError> {
         let invalid = |key: String, message: String| InputError::InvalidValue {
             path: path.into(),
             key,
@@ -571,6 +661,7 @@ impl SceneFile {
         }
         Ok(Scene {
             source: path.into(),
+            origin,
             meshes,
             camera: self.camera,
             light: self.light,

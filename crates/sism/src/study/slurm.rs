@@ -83,7 +83,12 @@ impl JobOptions {
     /// line (a newline would start a shell command in every task), the partition has no spaces, the
     /// time is a Slurm time.
     pub fn check(&self) -> crate::Result<()> {
-        ensure!(self.chunk >= 1, "--chunk must be at least 1");
+        ensure!(
+            (1..=sweep::MAX_POINTS).contains(&self.chunk),
+            "--chunk {}: points per array task, 1 to {} (a sweep's most points)",
+            self.chunk,
+            sweep::MAX_POINTS
+        );
         let one_line = |flag: &str, v: &str| {
             ensure!(
                 !v.trim().is_empty() && !v.contains(['\n', '\r']),
@@ -223,10 +228,11 @@ fn hex(bytes: &[u8]) -> String {
 
 impl Manifest {
     /// The checksum of this manifest's content (every field but `checksum`).
-    fn content_checksum(&self) -> String {
+    fn content_checksum(&self) -> crate::Result<String> {
         let mut m = self.clone();
         m.checksum.clear();
-        hex(toml::to_string(&m).expect("plain struct serialises").as_bytes())
+        let text = toml::to_string(&m).map_err(|e| crate::Error::invalid(format!("study manifest: {e}")))?;
+        Ok(hex(text.as_bytes()))
     }
 
     /// The points array task `task` simulates, in sweep order.
@@ -244,6 +250,20 @@ impl Manifest {
             format!("points {first}-{last}")
         }
     }
+}
+
+/// An error when `dir` holds a Slurm study (its manifest): a local study writing its `records.bin`
+/// and `machine.toml` there would break every task still to run.
+pub fn refuse_for_local(dir: &Path) -> crate::Result<()> {
+    ensure!(
+        std::fs::symlink_metadata(manifest_path(dir)).is_err(),
+        "--out {} holds a Slurm study ({} exists): a local study there would replace the records its tasks \
+         replay; choose another --out (or merge that study with `sism study collect {}`)",
+        dir.display(),
+        manifest_path(dir).display(),
+        dir.display()
+    );
+    Ok(())
 }
 
 /// `manifest.toml` in the study directory `dir`.
@@ -289,7 +309,7 @@ pub fn load_manifest(dir: &Path) -> crate::Result<Manifest> {
             e.to_string().trim_end().replace('\n', " ")
         ))
     })?;
-    let sum = m.content_checksum();
+    let sum = m.content_checksum()?;
     ensure!(
         m.checksum == sum,
         "study manifest {p}: checksum mismatch (the file says {}, its content gives {sum}): the manifest \
@@ -329,7 +349,7 @@ pub fn load_manifest(dir: &Path) -> crate::Result<Manifest> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> crate::Result<()> {
-    std::fs::write(path, bytes).map_err(|e| crate::Error::write(path, e))
+    write_atomic(path, bytes)
 }
 
 fn mkdir(path: &Path) -> crate::Result<()> {
@@ -367,31 +387,25 @@ pub fn prepare(
     notes: &mut dyn FnMut(Note, &str),
 ) -> crate::Result<(PathBuf, Manifest)> {
     job.check()?;
+    ensure!(
+        s.configs.len() <= sweep::MAX_POINTS,
+        "the sweep has {} points; at most {} are accepted",
+        s.configs.len(),
+        sweep::MAX_POINTS
+    );
     let dir = std::fs::canonicalize(out).map_err(|e| crate::Error::Io {
         what: "cannot resolve",
         path: out.to_path_buf(),
         error: e,
     })?;
-    for sub in ["machines", "results", "logs"] {
-        mkdir(&dir.join(sub))?;
-    }
-    let stale = remove_stale(&dir.join("results"), |n| {
-        n.starts_with("task-") || n.starts_with(".task-")
-    })? + remove_stale(&dir.join("logs"), |n| n.starts_with("task-"))?
-        + remove_stale(&dir.join("machines"), |n| n.starts_with("point-"))?
-        + remove_stale(&dir, |n| ["study.csv", "speedup.png", "phases.png"].contains(&n))?;
-    if stale > 0 {
-        notes(
-            Note::Info,
-            &format!("removed {stale} files of an earlier study in {}", dir.display()),
-        );
-    }
+    // Everything is built and checked in memory first (the machine files reading back, the manifest,
+    // the job script's values), so that a bad option fails before an earlier study in `dir` is
+    // touched.
     let records = to_bytes(s.records);
-    write(&dir.join("records.bin"), &records)?;
     let base = s.base.to_toml();
-    write(&dir.join("machine.toml"), base.as_bytes())?;
     let chunk = job.chunk;
     let mut points = Vec::with_capacity(s.configs.len());
+    let mut machine_files = Vec::with_capacity(s.configs.len());
     for (i, c) in s.configs.iter().enumerate() {
         let text = c.to_toml();
         // The replay must see exactly this configuration: check that the file reads back as it.
@@ -407,7 +421,6 @@ pub fn prepare(
             c.name
         );
         let rel = format!("machines/point-{i:04}.toml");
-        write(&dir.join(&rel), text.as_bytes())?;
         points.push(ManifestPoint {
             index: i,
             task: i / chunk,
@@ -415,9 +428,10 @@ pub fn prepare(
             cores: c.cores,
             threads: c.threads_per_core,
             l2_kb: c.l2_kb,
-            machine: rel,
+            machine: rel.clone(),
             machine_checksum: hex(text.as_bytes()),
         });
+        machine_files.push((rel, text));
     }
     let scene = std::fs::canonicalize(s.scene).unwrap_or_else(|_| s.scene.to_path_buf());
     let mut m = Manifest {
@@ -438,14 +452,34 @@ pub fn prepare(
         tasks: points.len().div_ceil(chunk),
         point: points,
     };
-    m.checksum = m.content_checksum();
-    let text = format!(
+    m.checksum = m.content_checksum()?;
+    let manifest_text = format!(
         "# sism study manifest: written by `sism study --backend slurm`, read by `sism study run|collect|submit`.\n\
          # Do not edit: the checksum covers every value below.\n{}",
-        toml::to_string(&m).expect("plain struct serialises")
+        toml::to_string(&m).map_err(|e| crate::Error::invalid(format!("study manifest: {e}")))?
     );
-    write_atomic(&manifest_path(&dir), text.as_bytes())?;
     let script = sbatch_script(&dir, &m, job)?;
+    // Now the directory: an earlier study's files go, the new ones come.
+    for sub in ["machines", "results", "logs"] {
+        mkdir(&dir.join(sub))?;
+    }
+    let stale = remove_stale(&dir.join("results"), |n| {
+        n.starts_with("task-") || n.starts_with(".task-")
+    })? + remove_stale(&dir.join("logs"), |n| n.starts_with("task-"))?
+        + remove_stale(&dir.join("machines"), |n| n.starts_with("point-"))?
+        + remove_stale(&dir, |n| ["study.csv", "speedup.png", "phases.png"].contains(&n))?;
+    if stale > 0 {
+        notes(
+            Note::Info,
+            &format!("removed {stale} files of an earlier study in {}", dir.display()),
+        );
+    }
+    write(&dir.join("records.bin"), &records)?;
+    write(&dir.join("machine.toml"), base.as_bytes())?;
+    for (rel, text) in &machine_files {
+        write(&dir.join(rel), text.as_bytes())?;
+    }
+    write_atomic(&manifest_path(&dir), manifest_text.as_bytes())?;
     write(&dir.join("study.sbatch"), script.as_bytes())?;
     notes(
         Note::Info,
@@ -457,6 +491,19 @@ pub fn prepare(
         ),
     );
     Ok((dir, m))
+}
+
+/// `value` when it may go into the job script: no control character (a newline in a comment or an
+/// `#SBATCH` line would start a shell command in every array task; quoting does not help a comment).
+/// `what` names it in the error.
+fn script_value<'a>(what: &str, value: &'a str) -> crate::Result<&'a str> {
+    ensure!(
+        !value.chars().any(char::is_control),
+        "{what} {:?} holds a control character (a newline, a tab, …), which a job script cannot carry \
+         safely: rename it",
+        value
+    );
+    Ok(value)
 }
 
 /// `study.sbatch`: the job array over every task of `m`.
@@ -475,7 +522,10 @@ fn sbatch_script(dir: &Path, m: &Manifest, job: &JobOptions) -> crate::Result<St
                 ))
             })?,
     };
-    let d = dir.display().to_string();
+    let d = script_value("the study directory", &dir.display().to_string())?.to_string();
+    let exe_text = script_value("the sism executable's path", &exe.display().to_string())?.to_string();
+    let scene_name = script_value("the scene's name", &m.scene_name)?;
+    let machine = script_value("--machine", &m.machine)?;
     ensure!(
         !d.contains(char::is_whitespace),
         "the study directory {d} has a space in its path, which #SBATCH lines cannot hold: choose another --out"
@@ -490,8 +540,8 @@ fn sbatch_script(dir: &Path, m: &Manifest, job: &JobOptions) -> crate::Result<St
          #SBATCH --chdir={d}\n\
          #SBATCH --ntasks=1\n",
         m.point.len(),
-        m.scene_name,
-        m.machine,
+        scene_name,
+        machine,
         m.tasks,
         m.chunk,
         m.tasks - 1,
@@ -511,7 +561,7 @@ fn sbatch_script(dir: &Path, m: &Manifest, job: &JobOptions) -> crate::Result<St
         "\n# One replay thread per CPU Slurm gives the task (add --sbatch-arg=--cpus-per-task=N for more).\n\
          export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\"\n\
          exec {} study run {} --task \"$SLURM_ARRAY_TASK_ID\"\n",
-        shell_quote(&exe.display().to_string()),
+        shell_quote(&exe_text),
         shell_quote(&d)
     );
     Ok(s)
@@ -585,6 +635,15 @@ pub fn submit(
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())
         .unwrap_or(0);
+    // Only a regular file is appended to (opening a FIFO to write would wait for a reader forever).
+    if let Ok(meta) = std::fs::metadata(&jobs) {
+        ensure!(
+            meta.is_file(),
+            "{} is a {}, not a regular file: remove it",
+            jobs.display(),
+            crate::input::kind_of(&meta)
+        );
+    }
     let mut f = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -594,15 +653,20 @@ pub fn submit(
     Ok(Submitted::Job { id, tasks: spec })
 }
 
-/// The job ids in `jobs.txt` (none if it is absent).
-pub fn job_ids(dir: &Path) -> BTreeSet<String> {
-    std::fs::read_to_string(dir.join("jobs.txt"))
-        .unwrap_or_default()
+/// The job ids in `jobs.txt` (none if it is absent). Read as every input is (a regular file of at
+/// most [`MAX_STUDY_FILE_BYTES`]): a FIFO or a link to a device is an error, not a hang.
+pub fn job_ids(dir: &Path) -> crate::Result<BTreeSet<String>> {
+    let path = dir.join("jobs.txt");
+    if std::fs::symlink_metadata(&path).is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound) {
+        return Ok(BTreeSet::new());
+    }
+    let text = crate::input::read_text(&path, "job list", MAX_STUDY_FILE_BYTES)?;
+    Ok(text
         .lines()
         .filter_map(|l| l.split_whitespace().next())
         .filter(|id| id.chars().all(|c| c.is_ascii_digit()))
         .map(str::to_string)
-        .collect()
+        .collect())
 }
 
 /// What one task's run did.
@@ -653,7 +717,25 @@ pub fn run_task(dir: &Path, task: usize) -> crate::Result<TaskRun> {
         configs.push(c);
     }
     let path = dir.join("records.bin");
-    let bytes = crate::input::read_file(&path, "records file", crate::input::MAX_RECORDS_BYTES)?;
+    // The size the manifest expects, before reading: a replaced (say sparse, huge) file is refused
+    // without being read.
+    let on_disk = std::fs::metadata(&path).map_err(|e| crate::Error::Io {
+        what: "cannot read",
+        path: path.clone(),
+        error: e,
+    })?;
+    ensure!(
+        on_disk.len() == m.records_bytes,
+        "records file {}: {} bytes, but the manifest's are {}: records.bin was replaced",
+        path.display(),
+        on_disk.len(),
+        m.records_bytes
+    );
+    let bytes = crate::input::read_file(
+        &path,
+        "records file",
+        m.records_bytes.min(crate::input::MAX_RECORDS_BYTES),
+    )?;
     let records = machine::parse_records(&bytes)
         .map_err(|e| crate::Error::invalid(format!("records file {}: {e}", path.display())))?;
     ensure!(
@@ -709,8 +791,11 @@ pub enum Status {
 /// The status of task `task`'s result file.
 pub fn read_result(dir: &Path, m: &Manifest, task: usize) -> Status {
     let path = result_path(dir, task);
-    if !path.exists() {
-        return Status::Missing;
+    // Missing only when nothing is there: a link loop or an unreadable folder is a failure to say.
+    match std::fs::symlink_metadata(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Status::Missing,
+        Err(e) => return Status::Bad(format!("cannot read it: {e}")),
+        Ok(_) => {}
     }
     let bytes = match crate::input::read_file(&path, "task result", MAX_STUDY_FILE_BYTES) {
         Ok(b) => b,
@@ -745,20 +830,79 @@ pub fn read_result(dir: &Path, m: &Manifest, task: usize) -> Status {
     if want != got {
         return Status::Bad(format!("holds points {got:?}, not the task's {want:?}"));
     }
+    for (p, mp) in r.points.iter().zip(m.points_of(task)) {
+        if let Err(e) = check_point(p, mp) {
+            return Status::Bad(format!("point {}: {e}", p.index));
+        }
+    }
     Status::Done(r.points)
 }
 
-/// The last `n` lines of `path` (at most its last 64 KB), if it can be read.
-fn tail(path: &Path, n: usize) -> Option<Vec<String>> {
+/// Whether the result point `p` is the replay of the manifest's point `mp`: the same configuration
+/// (cores, threads, L2), and a well-formed timing: at least one step, every figure finite and not
+/// negative, the frame's cycles at least any step's. A file edited, copied from another study or
+/// written by a broken task is refused rather than merged into `study.csv`.
+fn check_point(p: &Point, mp: &ManifestPoint) -> Result<(), String> {
+    if (p.cores, p.threads, p.l2_kb) != (mp.cores, mp.threads, mp.l2_kb) {
+        return Err(format!(
+            "cores {} threads {} L2 {} KB, but the manifest's point is cores {} threads {} L2 {} KB",
+            p.cores, p.threads, p.l2_kb, mp.cores, mp.threads, mp.l2_kb
+        ));
+    }
+    if p.steps.is_empty() {
+        return Err("no steps".into());
+    }
+    if !(p.clock_ghz.is_finite() && p.clock_ghz > 0.0) {
+        return Err(format!("clock {} GHz", p.clock_ghz));
+    }
+    for row in p.steps.iter().chain(&p.groups).chain([&p.frame]) {
+        let figures = [row.ms, row.lane_utilisation, row.l1_miss_rate, row.l2_miss_rate];
+        if figures.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(format!(
+                "{}: a figure is not a finite, non-negative number",
+                row.phase
+            ));
+        }
+        if row.cycles > p.frame.cycles {
+            return Err(format!(
+                "{}: {} cycles, more than the frame's {}",
+                row.phase, row.cycles, p.frame.cycles
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The last `n` lines of the log at `path` (of its last 64 KiB), or the line to print instead: no
+/// log yet, or a log that is not a regular file (a FIFO or a link to a device would block or never
+/// end; only its kind is reported).
+fn tail(path: &Path, n: usize) -> Result<Vec<String>, String> {
     use std::io::{Read, Seek, SeekFrom};
-    let mut f = std::fs::File::open(path).ok()?;
-    let len = f.metadata().ok()?.len();
-    f.seek(SeekFrom::Start(len.saturating_sub(64 << 10))).ok()?;
-    let mut b = Vec::new();
-    f.read_to_end(&mut b).ok()?;
+    let p = path.display();
+    let meta = match std::fs::metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(format!("no log {p} (not run by Slurm yet)"))
+        }
+        Err(e) => return Err(format!("log {p}: cannot read it: {e}")),
+    };
+    if !meta.is_file() {
+        return Err(format!(
+            "log {p} is a {}, not a regular file: not read",
+            crate::input::kind_of(&meta)
+        ));
+    }
+    let read = || -> std::io::Result<Vec<u8>> {
+        let mut f = std::fs::File::open(path)?;
+        f.seek(SeekFrom::Start(meta.len().saturating_sub(64 << 10)))?;
+        let mut b = Vec::new();
+        f.take(64 << 10).read_to_end(&mut b)?;
+        Ok(b)
+    };
+    let b = read().map_err(|e| format!("log {p}: cannot read it: {e}"))?;
     let text = String::from_utf8_lossy(&b);
     let lines: Vec<String> = text.lines().map(str::to_string).collect();
-    Some(lines[lines.len().saturating_sub(n)..].to_vec())
+    Ok(lines[lines.len().saturating_sub(n)..].to_vec())
 }
 
 /// Task ids without a valid result among `statuses`.
@@ -782,11 +926,13 @@ pub fn resubmittable(
     dir: &Path,
     m: &Manifest,
     statuses: &[Status],
-) -> (Vec<usize>, Vec<usize>) {
-    let active = scheduler.active_tasks(&job_ids(dir), m.tasks).unwrap_or_default();
-    incomplete(statuses)
+) -> crate::Result<(Vec<usize>, Vec<usize>)> {
+    let active = scheduler
+        .active_tasks(&job_ids(dir)?, m.tasks)
+        .unwrap_or_default();
+    Ok(incomplete(statuses)
         .into_iter()
-        .partition(|k| !active.iter().any(|(t, _)| t == k))
+        .partition(|k| !active.iter().any(|(t, _)| t == k)))
 }
 
 /// What `collect` is asked to do.
@@ -864,7 +1010,7 @@ pub fn collect(
     }
     if options.resubmit {
         let statuses = scan(dir, &m);
-        let (missing, active) = resubmittable(scheduler, dir, &m, &statuses);
+        let (missing, active) = resubmittable(scheduler, dir, &m, &statuses)?;
         if missing.is_empty() {
             if !active.is_empty() {
                 notes(
@@ -902,13 +1048,15 @@ pub fn collect(
         }
     }
     if options.watch {
-        watch(scheduler, dir, &m, options, sleep, notes);
+        watch(scheduler, dir, &m, options, sleep, notes)?;
     }
     let statuses = scan(dir, &m);
     report_strays(dir, &m, notes);
     let missing = incomplete(&statuses);
     if !missing.is_empty() {
-        let active = scheduler.active_tasks(&job_ids(dir), m.tasks).unwrap_or_default();
+        let active = scheduler
+            .active_tasks(&job_ids(dir)?, m.tasks)
+            .unwrap_or_default();
         let mut points = 0;
         for &k in &missing {
             points += m.points_of(k).count();
@@ -930,14 +1078,14 @@ pub fn collect(
             }
             let log = log_path(dir, k);
             match tail(&log, options.log_lines) {
-                Some(lines) if lines.is_empty() => s += &format!("\n  log {}: empty", log.display()),
-                Some(lines) => {
+                Ok(lines) if lines.is_empty() => s += &format!("\n  log {}: empty", log.display()),
+                Ok(lines) => {
                     s += &format!("\n  log {} ends:", log.display());
                     for l in lines {
                         s += &format!("\n  | {l}");
                     }
                 }
-                None => s += &format!("\n  no log {} (not run by Slurm yet)", log.display()),
+                Err(line) => s += &format!("\n  {line}"),
             }
             notes(Note::Problem, &s);
         }
@@ -990,7 +1138,7 @@ pub fn submit_study(
         return submit(scheduler, dir, &m, None, dry_run).map(Some);
     }
     let statuses = scan(dir, &m);
-    let (missing, active) = resubmittable(scheduler, dir, &m, &statuses);
+    let (missing, active) = resubmittable(scheduler, dir, &m, &statuses)?;
     if missing.is_empty() {
         notes(
             Note::Info,
@@ -1033,6 +1181,9 @@ fn report_strays(dir: &Path, m: &Manifest, notes: &mut dyn FnMut(Note, &str)) {
 
 /// Polls results/ (and the scheduler) every `interval` seconds, with a progress bar of points done,
 /// until every point is done, no task of the study's jobs is pending or running, or the timeout.
+/// When the scheduler cannot say which tasks are active (no `squeue`, or it fails), the end of the
+/// tasks cannot be seen: without a timeout the watch stops at once, saying so; with one it waits for
+/// results only, until the timeout.
 fn watch(
     scheduler: &dyn Scheduler,
     dir: &Path,
@@ -1040,7 +1191,9 @@ fn watch(
     options: &CollectOptions,
     sleep: &dyn Fn(Duration),
     notes: &mut dyn FnMut(Note, &str),
-) {
+) -> crate::Result<()> {
+    let jobs = job_ids(dir)?;
+    let mut blind_noted = false;
     let total = m.point.len() as u64;
     let bar = crate::progress::bar(total, "points done", options.progress);
     let start = Instant::now();
@@ -1060,7 +1213,32 @@ fn watch(
     };
     loop {
         let mut done = count(&mut done_tasks);
-        let active = scheduler.active_tasks(&job_ids(dir), m.tasks);
+        let active = scheduler.active_tasks(&jobs, m.tasks);
+        if active.is_none() && !blind_noted {
+            blind_noted = true;
+            let what = "watch: cannot ask Slurm which of the study's tasks are pending or running (squeue \
+                        missing or failing)";
+            match options.timeout {
+                None => {
+                    bar.suspend(|| {
+                        notes(
+                            Note::Problem,
+                            &format!(
+                                "{what}, so the end of the tasks cannot be seen: not watching (give \
+                                      --timeout to wait for results without squeue)"
+                            ),
+                        )
+                    });
+                    break;
+                }
+                Some(t) => bar.suspend(|| {
+                    notes(
+                        Note::Problem,
+                        &format!("{what}: waiting for results only, up to --timeout {t} s"),
+                    )
+                }),
+            }
+        }
         if done < total && active.as_ref().is_some_and(|a| a.is_empty()) {
             // The last task may have finished between the two looks.
             done = count(&mut done_tasks);
@@ -1100,4 +1278,5 @@ fn watch(
         polls += 1;
     }
     bar.finish_and_clear();
+    Ok(())
 }

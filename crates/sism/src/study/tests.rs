@@ -309,7 +309,7 @@ fn failed_and_vanished_tasks_are_named_then_resubmitted_alone() {
         matches!(r.unwrap(), Collected::Complete(ref p) if p.len() == 5),
         "{notes:?}"
     );
-    assert_eq!(slurm::job_ids(&dir).len(), 2);
+    assert_eq!(slurm::job_ids(&dir).unwrap().len(), 2);
     // Nothing is left to resubmit.
     let mut notes = Vec::new();
     let s = slurm::submit_study(&fake, &dir, true, false, &mut |_, l| notes.push(l.to_string())).unwrap();

@@ -30,6 +30,13 @@ use crate::scene::Scene;
 pub const MAX_FRAMES: usize = 100_000;
 /// Largest |coordinate| accepted, world units (the scene file's bound).
 const MAX_COORD: f32 = 1e15;
+/// Most mesh moves a trace may hold, summed over its frames (each frame carries every move in force,
+/// so a trace of 1 000 frames moving 1 000 meshes holds 10^6): bounds the memory a small file can ask
+/// for (16 bytes a move).
+pub const MAX_MOVES: usize = 4 << 20;
+/// Highest mesh index a `mesh` statement may name (the scene's mesh count is checked when the trace
+/// is applied; this bounds what a trace alone can ask for).
+pub const MAX_MESH_INDEX: usize = 1 << 20;
 
 /// One frame's view of the scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,6 +60,9 @@ pub struct TraceFrame {
 pub struct Trace {
     /// The scene file, as written in the trace (relative to the trace's folder unless absolute).
     pub scene: PathBuf,
+    /// The scene's origin ([`Scene::origin`]): the file holds world coordinates, the frames hold
+    /// positions relative to this (converted in f64 when read and written).
+    pub origin: [f64; 3],
     /// The frames, in order.
     pub frames: Vec<TraceFrame>,
 }
@@ -81,9 +91,20 @@ pub fn initial_frame(scene: &Scene) -> TraceFrame {
     }
 }
 
-/// Parses trace `text` (from `path`, for messages). Frames start from `start` (the scene's view:
-/// [`initial_frame`]); the scene line is returned as written.
+/// Parses trace `text` (from `path`, for messages) over `scene`: frames start from its view
+/// ([`initial_frame`]), positions are made relative to its origin.
+pub fn parse_over(text: &str, path: &Path, scene: &Scene) -> Result<Trace, TraceError> {
+    parse_at(text, path, &initial_frame(scene), scene.origin)
+}
+
+/// Parses trace `text` (from `path`, for messages) for a scene at the world origin. Frames start from
+/// `start` (the scene's view: [`initial_frame`]); the scene line is returned as written.
 pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, TraceError> {
+    parse_at(text, path, start, [0.0; 3])
+}
+
+/// [`parse`] with positions made relative to `origin` (world units, f64).
+fn parse_at(text: &str, path: &Path, start: &TraceFrame, origin: [f64; 3]) -> Result<Trace, TraceError> {
     let err = |line: usize, message: String| TraceError {
         path: path.display().to_string(),
         line,
@@ -101,11 +122,15 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
     }
     let mut scene = None;
     let mut frames: Vec<TraceFrame> = Vec::new();
+    // The moves in force, by mesh index: set by `mesh` lines (a map, so many moves in one frame cost
+    // n log n, not n²), copied into each frame when the next begins or the trace ends.
+    let mut moves: std::collections::BTreeMap<usize, Vec3> = start.mesh_moves.iter().copied().collect();
+    let mut total_moves = 0usize;
     for (n, line) in lines {
         let mut words = line.split_whitespace();
         let key = words.next().unwrap_or("");
         let rest: Vec<&str> = words.collect();
-        let numbers = |count: usize| -> Result<Vec<f32>, TraceError> {
+        let numbers = |count: usize| -> Result<Vec<f64>, TraceError> {
             if rest.len() != count {
                 return Err(err(
                     n,
@@ -113,8 +138,8 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
                 ));
             }
             rest.iter()
-                .map(|w| match w.parse::<f32>() {
-                    Ok(v) if v.is_finite() && v.abs() <= MAX_COORD => Ok(v),
+                .map(|w| match w.parse::<f64>() {
+                    Ok(v) if v.is_finite() && v.abs() <= MAX_COORD as f64 => Ok(v),
                     Ok(v) => Err(err(
                         n,
                         format!("`{key}`: {v} is not finite or beyond ±{MAX_COORD:e}"),
@@ -127,10 +152,13 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
             if scene.is_some() || !frames.is_empty() {
                 return Err(err(n, "`scene` must come once, before the first frame".into()));
             }
-            if rest.len() != 1 {
-                return Err(err(n, "`scene` takes one path (no spaces)".into()));
+            // The path is the rest of the line (spaces allowed; `#` starts a comment, so a path
+            // cannot hold one: [`write`] refuses such paths).
+            let path = line["scene".len()..].trim();
+            if path.is_empty() {
+                return Err(err(n, "`scene` takes a path".into()));
             }
-            scene = Some(PathBuf::from(rest[0]));
+            scene = Some(PathBuf::from(path));
             continue;
         }
         if key == "frame" {
@@ -143,6 +171,19 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
             if frames.len() == MAX_FRAMES {
                 return Err(err(n, format!("more than {MAX_FRAMES} frames")));
             }
+            if let Some(f) = frames.last_mut() {
+                f.mesh_moves = moves.iter().map(|(&i, &t)| (i, t)).collect();
+            }
+            total_moves += moves.len();
+            if total_moves > MAX_MOVES {
+                return Err(err(
+                    n,
+                    format!(
+                        "the frames so far carry {total_moves} mesh moves (each frame every move in force); \
+                         at most {MAX_MOVES} are accepted"
+                    ),
+                ));
+            }
             let next = frames.last().cloned().unwrap_or_else(|| start.clone());
             frames.push(next);
             continue;
@@ -153,7 +194,7 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
         match key {
             "camera" => {
                 let v = numbers(6)?;
-                let (eye, at) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
+                let (eye, at) = (local(&v[0..3], origin), local(&v[3..6], origin));
                 if eye == at {
                     return Err(err(n, "`camera`: the eye and the look-at point coincide".into()));
                 }
@@ -161,7 +202,7 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
                 f.look_at = at;
             }
             "fov" => {
-                let v = numbers(1)?[0];
+                let v = numbers(1)?[0] as f32;
                 if !(v > 0.0 && v < 180.0) {
                     return Err(err(n, format!("`fov` {v}: degrees in (0, 180)")));
                 }
@@ -172,14 +213,17 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
                 if v[3] < 0.0 {
                     return Err(err(n, format!("`light` radius {} is negative", v[3])));
                 }
-                f.light_center = Vec3::new(v[0], v[1], v[2]);
-                f.light_radius = v[3];
+                f.light_center = local(&v[0..3], origin);
+                f.light_radius = v[3] as f32;
             }
             "mesh" => {
                 let index: usize = rest
                     .first()
                     .and_then(|w| w.parse().ok())
                     .ok_or_else(|| err(n, "`mesh` takes a mesh index, then x y z".into()))?;
+                if index > MAX_MESH_INDEX {
+                    return Err(err(n, format!("`mesh` index {index} is beyond {MAX_MESH_INDEX}")));
+                }
                 let rest_xyz = &rest[1..];
                 if rest_xyz.len() != 3 {
                     return Err(err(
@@ -195,14 +239,7 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
                         .filter(|v| v.is_finite() && v.abs() <= MAX_COORD)
                         .ok_or_else(|| err(n, format!("`mesh`: `{w}` is not a finite number")))?;
                 }
-                let t = Vec3::from(v);
-                match f.mesh_moves.iter_mut().find(|(i, _)| *i == index) {
-                    Some(m) => m.1 = t,
-                    None => {
-                        f.mesh_moves.push((index, t));
-                        f.mesh_moves.sort_by_key(|m| m.0);
-                    }
-                }
+                moves.insert(index, Vec3::from(v));
             }
             _ => {
                 return Err(err(
@@ -213,35 +250,113 @@ pub fn parse(text: &str, path: &Path, start: &TraceFrame) -> Result<Trace, Trace
         }
     }
     let scene = scene.ok_or_else(|| err(0, "no `scene` line".into()))?;
-    if frames.is_empty() {
+    let Some(last) = frames.last_mut() else {
         return Err(err(0, "no frames".into()));
+    };
+    last.mesh_moves = moves.iter().map(|(&i, &t)| (i, t)).collect();
+    if total_moves + moves.len() > MAX_MOVES {
+        return Err(err(
+            0,
+            format!("the frames carry more than {MAX_MOVES} mesh moves (each frame every move in force)"),
+        ));
     }
-    Ok(Trace { scene, frames })
+    Ok(Trace {
+        scene,
+        origin,
+        frames,
+    })
 }
 
-/// The trace as text: every field of every frame.
-pub fn write(trace: &Trace) -> String {
-    let mut s = format!("sism-trace 1\nscene {}\n", trace.scene.display());
+/// A position read from a trace (world units, f64) relative to `origin`, as the frames hold it.
+fn local(world: &[f64], origin: [f64; 3]) -> Vec3 {
+    Vec3::new(
+        (world[0] - origin[0]) as f32,
+        (world[1] - origin[1]) as f32,
+        (world[2] - origin[2]) as f32,
+    )
+}
+
+/// A frame's position back in world units, as the trace file holds it. At the world origin the f32
+/// value itself (written as f32, its shortest form); elsewhere the f64 sum.
+fn world(local: Vec3, origin: [f64; 3]) -> [String; 3] {
+    let mut out = [String::new(), String::new(), String::new()];
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = if origin == [0.0; 3] {
+            local[k].to_string()
+        } else {
+            (local[k] as f64 + origin[k]).to_string()
+        };
+    }
+    out
+}
+
+/// The trace as text: every field of every frame. Its scene path must read back: UTF-8, no `#`, no
+/// control character, no space at either end; anything else is an error naming it.
+pub fn write(trace: &Trace) -> Result<String, String> {
+    let scene = trace.scene.to_str().ok_or_else(|| {
+        format!(
+            "scene path {}: not UTF-8, which a trace file cannot hold",
+            trace.scene.display()
+        )
+    })?;
+    if scene.is_empty() || scene.contains('#') || scene.chars().any(char::is_control) || scene.trim() != scene
+    {
+        return Err(format!(
+            "scene path {:?}: a trace names its scene on one line, so the path cannot hold `#` (a comment), \
+             a control character or a space at either end; move or rename the scene",
+            scene
+        ));
+    }
+    let mut s = format!("sism-trace 1\nscene {scene}\n");
     for f in &trace.frames {
+        let [ex, ey, ez] = world(f.eye, trace.origin);
+        let [ax, ay, az] = world(f.look_at, trace.origin);
+        let [lx, ly, lz] = world(f.light_center, trace.origin);
         s += &format!(
-            "frame\ncamera {} {} {}  {} {} {}\nfov {}\nlight {} {} {}  {}\n",
-            f.eye.x,
-            f.eye.y,
-            f.eye.z,
-            f.look_at.x,
-            f.look_at.y,
-            f.look_at.z,
-            f.fov_y_deg,
-            f.light_center.x,
-            f.light_center.y,
-            f.light_center.z,
-            f.light_radius
+            "frame\ncamera {ex} {ey} {ez}  {ax} {ay} {az}\nfov {}\nlight {lx} {ly} {lz}  {}\n",
+            f.fov_y_deg, f.light_radius
         );
         for (i, t) in &f.mesh_moves {
             s += &format!("mesh {i} {} {} {}\n", t.x, t.y, t.z);
         }
     }
-    s
+    Ok(s)
+}
+
+/// Checks that every frame of `trace` can be rendered over `scene`: finite positions within the
+/// format's bound, a camera the scene's rules accept (eye apart from the look-at point, field of view
+/// in range), a light radius that is finite and not negative, and mesh indices the scene has. The
+/// error names the frame (0-based) and what is wrong.
+pub fn check(trace: &Trace, scene: &Scene) -> Result<(), String> {
+    let mut camera = scene.camera;
+    for (k, f) in trace.frames.iter().enumerate() {
+        let numbers = [f.eye, f.look_at, f.light_center]
+            .into_iter()
+            .flat_map(|v| v.to_array())
+            .chain([f.fov_y_deg, f.light_radius])
+            .chain(f.mesh_moves.iter().flat_map(|m| m.1.to_array()));
+        for v in numbers {
+            if !(v.is_finite() && v.abs() <= MAX_COORD) {
+                return Err(format!("frame {k}: {v} is not finite or beyond ±{MAX_COORD:e}"));
+            }
+        }
+        if f.light_radius < 0.0 {
+            return Err(format!("frame {k}: light radius {} is negative", f.light_radius));
+        }
+        camera.eye = f.eye.to_array();
+        camera.look_at = f.look_at.to_array();
+        camera.fov_y_deg = f.fov_y_deg;
+        if let Err((key, msg)) = camera.validate() {
+            return Err(format!("frame {k}: {key} {msg}"));
+        }
+        if let Some((i, _)) = f.mesh_moves.iter().find(|m| m.0 >= scene.meshes.len()) {
+            return Err(format!(
+                "frame {k}: mesh {i}: the scene has {} meshes",
+                scene.meshes.len()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `base` as frame `f` sees it: camera, light, and the moved meshes translated. Errors name a mesh
@@ -291,6 +406,7 @@ fn sweep(
     let last = frames.max(2).saturating_sub(1) as f32;
     Trace {
         scene: scene_file.to_path_buf(),
+        origin: scene.origin,
         frames: (0..frames.max(1))
             .map(|k| step(&f0, &|x| x * k as f32 / last))
             .collect(),
@@ -398,13 +514,16 @@ mod tests {
             vec![(0, Vec3::new(0.0, 1e-3, 0.0)), (1, Vec3::new(0.5, 0.0, 0.0))]
         );
         assert_eq!(t.frames[2].fov_y_deg, 30.0);
-        let again = parse(&write(&t), Path::new("t.trace"), &start()).unwrap();
+        let again = parse(&write(&t).unwrap(), Path::new("t.trace"), &start()).unwrap();
         assert_eq!(again, t);
         // Odd values survive the text too.
         let mut odd = t.clone();
         odd.frames[0].eye.x = 0.1 + 0.2;
         odd.frames[0].light_center.z = -1.0e-7;
-        assert_eq!(parse(&write(&odd), Path::new("t"), &start()).unwrap(), odd);
+        assert_eq!(
+            parse(&write(&odd).unwrap(), Path::new("t"), &start()).unwrap(),
+            odd
+        );
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::{apply_to, flicker_values, initial_frame, parse, summarize, Trace, TraceFrame};
+use super::{apply_to, flicker_values, parse, summarize, Trace, TraceFrame};
 use crate::algorithms::{Algorithm, Params, PreparedScene, SceneCache};
 use crate::error::{ensure, Context};
 use crate::frame::VisibilityImage;
@@ -39,7 +39,8 @@ pub fn load(path: &Path, width: Option<u32>, height: Option<u32>) -> crate::Resu
     if let Err((key, msg)) = scene.camera.validate() {
         crate::error::bail!("--width/--height: {} {msg}", key.replace("camera.", ""));
     }
-    let t = parse(&text, path, &initial_frame(&scene)).map_err(|e| crate::Error::invalid(e.to_string()))?;
+    let t = super::parse_over(&text, path, &scene).map_err(|e| crate::Error::invalid(e.to_string()))?;
+    super::check(&t, &scene).map_err(|e| crate::Error::invalid(format!("{}: {e}", path.display())))?;
     Ok((t, scene))
 }
 
@@ -55,6 +56,9 @@ fn placeholder() -> TraceFrame {
     }
 }
 
+/// The kind of run a trace run's folder marker names ([`crate::output::staged`]).
+pub const RUN_KIND: &str = "trace run";
+
 /// What [`run`] renders and where it writes.
 pub struct RunOptions<'a> {
     /// The algorithm and its resolved parameters.
@@ -66,7 +70,8 @@ pub struct RunOptions<'a> {
     /// A folder of an earlier run of the same trace (`frame_NNNN.pfm`): per-frame error against its
     /// frames and flicker against its frame-to-frame change.
     pub reference: Option<&'a Path>,
-    /// The output folder (must exist).
+    /// The output folder: written whole or not at all ([`crate::output::staged`]); an existing
+    /// folder is replaced only when it is a complete trace run.
     pub out: &'a Path,
     /// Show a progress bar of frames.
     pub progress: bool,
@@ -96,7 +101,12 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         "--machine times algorithms that run on the simd kernels; {} is not one",
         algo.name
     );
-    let out = options.out;
+    if let Some(r) = options.reference {
+        crate::output::guard::protect_dir(r, "--reference");
+        crate::output::staged::ensure_complete(r, RUN_KIND, "--reference")?;
+    }
+    let staged = crate::output::staged::StagedDir::new(options.out, RUN_KIND)?;
+    let out = staged.path();
     let bar = crate::progress::bar(trace.frames.len() as u64, "frames", options.progress);
     let render_options = RenderOptions {
         progress: false,
@@ -133,7 +143,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         cache = Some(prepared.into_cache());
         let v = result.visibility;
         let frame_path = out.join(format!("frame_{k:04}.pfm"));
-        pfm::write_pfm(&frame_path, &v).map_err(|e| crate::Error::write(frame_path, e))?;
+        pfm::write_pfm(&frame_path, &v)?;
         let reference = match options.reference {
             Some(dir) => {
                 let p = dir.join(format!("frame_{k:04}.pfm"));
@@ -196,6 +206,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         &host,
         &flicker_per_frame,
     )?;
+    staged.commit()?;
     Ok(TraceRun {
         host_ms: host,
         sim_ms: sims,

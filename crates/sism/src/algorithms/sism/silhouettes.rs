@@ -143,6 +143,7 @@ mod tests {
     fn scene_of(meshes: Vec<crate::scene::Mesh>) -> Scene {
         Scene {
             source: "test".into(),
+            origin: [0.0; 3],
             meshes,
             camera: crate::scene::Camera {
                 eye: [0.0, 0.0, 5.0],
