@@ -483,6 +483,7 @@ impl LineStream {
     }
 
     /// Decode: `(line, is_write)` in access order.
+    #[inline]
     pub fn iter(&self) -> LineIter<'_> {
         LineIter {
             b: &self.bytes,
@@ -506,6 +507,8 @@ pub struct LineIter<'a> {
 
 impl Iterator for LineIter<'_> {
     type Item = (u64, bool);
+    // Inlined across the crate boundary: the replay decodes every access through it.
+    #[inline]
     fn next(&mut self) -> Option<(u64, bool)> {
         if self.left == 0 {
             if self.pos >= self.b.len() {

@@ -61,10 +61,8 @@
 
 use sism_simd::{Counters, TaskRecord};
 
-use super::cache::{Cache, LineHasher, LineIds, PAGE_BYTES};
+use super::cache::{Cache, LineIds, PAGE_BYTES};
 use super::config::MachineConfig;
-use std::collections::HashSet;
-use std::hash::BuildHasherDefault;
 
 /// Where a phase's (or frame's) cycles went; the parts sum exactly to [`CycleStack::total`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -655,9 +653,16 @@ pub struct TaskPages {
 #[derive(Default)]
 pub struct LineMapper {
     ids: LineIds,
-    /// The current task's distinct pages.
-    task_pages: HashSet<u64, BuildHasherDefault<LineHasher>>,
+    /// Per page of first-touch ids (dense: page `p` holds ids `64p..64p+63`), the last task that
+    /// touched it ([`LineMapper::task`]; 0: none): a task's distinct pages are counted by an array
+    /// store per page change, not a hash-set insert.
+    page_task: Vec<u32>,
+    /// The number of the task being mapped (1 for the first).
+    task: u32,
 }
+
+/// Lines of a [`PAGE_BYTES`] page (a constant, so that the per-access divisions are shifts).
+const LINES_PER_PAGE: u32 = (PAGE_BYTES / 64) as u32;
 
 impl LineMapper {
     /// Decodes `task`'s line stream as `id << 2 | continues_a_stream << 1 | is_write`, calling `replay` with chunks of at
@@ -694,14 +699,21 @@ impl LineMapper {
     /// uniform shift of the addresses changes nothing; two buffers the allocator happened to
     /// place end to end can continue one stream across the seam, as a hardware prefetcher would.
     pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
-        let lines_per_page = (PAGE_BYTES / 64) as u32;
         let mut pages = TaskPages::default();
         let mut last_page = u32::MAX;
-        self.task_pages.clear();
+        self.task = self.task.wrapping_add(1);
+        if self.task == 0 {
+            // Wrapped (2^32 tasks): forget every stamp so none is mistaken for this task's.
+            self.page_task.fill(0);
+            self.task = 1;
+        }
+        let task_number = self.task;
         // Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
         let mut heads = [u64::MAX / 2; STREAMS];
         let (mut oldest, mut last) = (0, 0);
-        task.lines.for_each(|line, write| {
+        // A plain loop over the decoder (not a callback): the stream state stays in registers and
+        // nothing is called per access.
+        for (line, write) in task.lines.iter() {
             // The heads within reach (the line itself included), as a bit mask: a branch-free
             // loop the compiler vectorises, since the mapper does this for every access.
             let within = |h: u64| line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH;
@@ -729,15 +741,19 @@ impl LineMapper {
             let before = self.ids.len();
             let id = self.ids.id(line);
             // The first line of a page, touched first by a write: fresh memory.
-            pages.fresh += (self.ids.len() > before && id.is_multiple_of(lines_per_page) && write) as u64;
-            let page = id / lines_per_page;
+            pages.fresh += (self.ids.len() > before && id.is_multiple_of(LINES_PER_PAGE) && write) as u64;
+            let page = id / LINES_PER_PAGE;
             if page != last_page {
                 last_page = page;
-                self.task_pages.insert(page as u64);
+                let p = page as usize;
+                if p >= self.page_task.len() {
+                    self.page_task.resize((p + 1).next_power_of_two(), 0);
+                }
+                pages.distinct += (self.page_task[p] != task_number) as u64;
+                self.page_task[p] = task_number;
             }
             each(id << 2 | (stream as u32) << 1 | write as u32);
-        });
-        pages.distinct = self.task_pages.len() as u64;
+        }
         pages
     }
 }
