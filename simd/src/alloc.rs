@@ -183,6 +183,14 @@ impl HoldFrees {
         HOLD_LIMIT.store(bytes, Ordering::Relaxed);
     }
 
+    /// Whether frees are being held (a counted frame is running). Code that reuses a buffer across
+    /// tasks through a per-thread cache must not while this holds: which host thread runs which task
+    /// is the pool's choice, so the buffer's address (and with it the recorded lines) would differ
+    /// from run to run.
+    pub fn active() -> bool {
+        HOLDERS.load(Ordering::Acquire) > 0
+    }
+
     /// Frees given back at once because the hold was at its limit, since the current hold began.
     pub fn released() -> usize {
         RELEASED.load(Ordering::Relaxed)

@@ -20,11 +20,17 @@ struct State {
     c: Counters,
     enc: LineEncoder,
     record_lines: bool,
+    /// The recording thread's stack as a line range `[lo, hi)` (empty when unknown): lines in it
+    /// are not recorded ([`State::push_line`]).
+    stack: (u64, u64),
     done: Vec<TaskRecord>,
-    /// Depth (nominal cycles) every value produced before the current task is taken to have:
-    /// the largest depth produced so far when the task began. A task's chains start here.
-    base: u64,
-    /// Largest depth produced so far (by any task of this recorder).
+    /// The current epoch (a task, or the stretch between two tasks), never 0: a depth carries its
+    /// epoch in its high 32 bits, so a value made in another epoch (an earlier task, another
+    /// thread, the setup before a parallel loop) counts as ready when the task begins, whichever
+    /// host thread made it and whatever ran there before: critical paths do not depend on the
+    /// pool's scheduling.
+    epoch: u64,
+    /// Largest depth produced in the current epoch, relative to its start.
     top: u64,
     /// Retirement depths of the last [`WINDOW`] vector operations (a ring; `issued` mod
     /// [`WINDOW`] is the oldest): an operation enters the window only when the one [`WINDOW`]
@@ -46,6 +52,103 @@ struct State {
 /// only as far as the window reaches (the instruction-window model of Sniper, Carlson et al. 2014).
 pub const WINDOW: usize = 128;
 
+/// The last epoch handed out ([`State::epoch`]).
+static EPOCHS: core::sync::atomic::AtomicU64 = core::sync::atomic::AtomicU64::new(0);
+
+/// A fresh epoch: 1, 2, … (wrapping within 32 bits, skipping 0).
+fn next_epoch() -> u64 {
+    loop {
+        let e = (EPOCHS.fetch_add(1, core::sync::atomic::Ordering::Relaxed) + 1) & 0xffff_ffff;
+        if e != 0 {
+            return e;
+        }
+    }
+}
+
+/// Largest depth within an epoch, nominal cycles (a longer chain saturates).
+const MAX_LOCAL_DEPTH: u64 = 0xffff_ffff;
+
+impl State {
+    /// Starts a new epoch: depths restart at 0 and the window is empty.
+    fn start_epoch(&mut self) {
+        self.epoch = next_epoch();
+        self.top = 0;
+        self.retired = 0;
+        self.window.fill(0);
+    }
+
+    /// `depth` relative to the current epoch's start: its low bits when it was made in this
+    /// epoch, else 0 (ready when the epoch began).
+    #[inline(always)]
+    fn local(&self, depth: u64) -> u64 {
+        if depth >> 32 == self.epoch {
+            depth & MAX_LOCAL_DEPTH
+        } else {
+            0
+        }
+    }
+
+    /// A depth of this epoch, as values carry it.
+    #[inline(always)]
+    fn tagged(&self, local: u64) -> u64 {
+        self.epoch << 32 | local.min(MAX_LOCAL_DEPTH)
+    }
+
+    /// Appends `line` to the task's stream, unless it lies in the thread's stack. A stack line is
+    /// the task's own locals: hot in L1 on any machine, and its address depends on which host
+    /// thread ran the task (a work-stealing pool's choice), so recording it would make the line
+    /// ids, and every cache figure of the replay, differ from run to run. Its access is still
+    /// counted (load and store lines, scalar memory operations).
+    #[inline(always)]
+    fn push_line(&mut self, line: u64, write: bool) {
+        if !(self.stack.0..self.stack.1).contains(&line) {
+            self.enc.push(line, write);
+        }
+    }
+}
+
+/// The calling thread's stack as a range of 64-byte lines `[lo, hi)`, read once per thread
+/// (`pthread_getattr_np`); empty where it cannot be read (then stack lines are recorded).
+fn thread_stack_lines() -> (u64, u64) {
+    std::thread_local! {
+        static STACK: core::cell::Cell<Option<(u64, u64)>> = const { core::cell::Cell::new(None) };
+    }
+    STACK.with(|s| {
+        if let Some(r) = s.get() {
+            return r;
+        }
+        let r = read_thread_stack();
+        s.set(Some(r));
+        r
+    })
+}
+
+#[cfg(target_os = "linux")]
+fn read_thread_stack() -> (u64, u64) {
+    // SAFETY: `attr` is initialised by `pthread_getattr_np` before it is read and destroyed once;
+    // the out-pointers are valid locals.
+    unsafe {
+        let mut attr: libc::pthread_attr_t = core::mem::zeroed();
+        if libc::pthread_getattr_np(libc::pthread_self(), &mut attr) != 0 {
+            return (0, 0);
+        }
+        let mut addr: *mut libc::c_void = core::ptr::null_mut();
+        let mut size: libc::size_t = 0;
+        let ok = libc::pthread_attr_getstack(&attr, &mut addr, &mut size) == 0;
+        libc::pthread_attr_destroy(&mut attr);
+        if !ok || size == 0 {
+            return (0, 0);
+        }
+        let lo = addr as usize;
+        ((lo / 64) as u64, (lo.saturating_add(size)).div_ceil(64) as u64)
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn read_thread_stack() -> (u64, u64) {
+    (0, 0)
+}
+
 impl Default for Recorder {
     fn default() -> Self {
         Self::new()
@@ -65,8 +168,9 @@ impl Recorder {
                 c: Counters::default(),
                 enc: LineEncoder::default(),
                 record_lines,
+                stack: (0, 0),
                 done: Vec::new(),
-                base: 0,
+                epoch: next_epoch(),
                 top: 0,
                 window: Box::new([0; WINDOW]),
                 retired: 0,
@@ -82,7 +186,10 @@ impl Recorder {
             let r = take(&mut st);
             st.done.push(r);
         }
+        // The task's own epoch: what was made before it is ready when it begins.
+        st.start_epoch();
         st.kind = kind;
+        st.stack = thread_stack_lines();
     }
 
     /// End the current task and return its record (not filed).
@@ -101,7 +208,7 @@ impl Recorder {
     pub fn current(&self) -> Counters {
         let st = self.st.borrow();
         Counters {
-            critical_path: st.top - st.base,
+            critical_path: st.top,
             ..st.c
         }
     }
@@ -125,8 +232,8 @@ impl Recorder {
 
 fn take(st: &mut State) -> TaskRecord {
     // The task's longest chain; the next task's chains start above every value made so far.
-    st.c.critical_path = st.top - st.base;
-    st.base = st.top;
+    st.c.critical_path = st.top;
+    st.start_epoch();
     let r = TaskRecord {
         kind: st.kind,
         counters: core::mem::take(&mut st.c),
@@ -323,12 +430,12 @@ impl<'r, B: Simd> Counting<'r, B> {
             c.active_lanes += lanes as u64;
             c.masked_ops += masked as u64;
             let slot = st.issued % WINDOW;
-            let depth = inputs.max(st.base).max(st.window[slot]) + latency;
+            let depth = st.local(inputs).max(st.window[slot]) + latency;
             st.retired = st.retired.max(depth);
             st.window[slot] = st.retired;
             st.issued += 1;
             st.top = st.top.max(depth);
-            depth
+            st.tagged(depth)
         })
     }
     #[inline(always)]
@@ -341,7 +448,7 @@ impl<'r, B: Simd> Counting<'r, B> {
             st.c.valu += 4;
             st.c.vector_ops += 4;
             st.c.active_lanes += 64;
-            st.top = st.top.max(input.max(st.base) + latency::REDUCE);
+            st.top = st.top.max(st.local(input) + latency::REDUCE);
         })
     }
 
@@ -359,7 +466,7 @@ impl<'r, B: Simd> Counting<'r, B> {
             }
             if st.record_lines {
                 for l in l0..=l1 {
-                    st.enc.push(l, write);
+                    st.push_line(l, write);
                 }
             }
         })
@@ -392,7 +499,7 @@ impl<'r, B: Simd> Counting<'r, B> {
                 runs += 1;
                 sorted &= i == 0 || lines[i] > lines[i - 1];
                 if st.record_lines {
-                    st.enc.push(lines[i], write);
+                    st.push_line(lines[i], write);
                 }
             }
         });
@@ -850,7 +957,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
         self.rec.with(|st| {
             if st.record_lines {
                 for l in l0..=l1 {
-                    st.enc.push(l, write);
+                    st.push_line(l, write);
                 }
             }
         })

@@ -425,3 +425,50 @@ fn check_against_brute_force_rays(
     );
     assert!(sum_diff / (pixels as f64) < 1e-3);
 }
+
+/// A counted frame writes the same records in every process, for any host thread count: the
+/// recorder leaves the task's stack lines out (their addresses depend on which pool thread ran the
+/// task) and no per-thread buffer is reused across tasks while frees are held. Before, palm's
+/// `sism-sampled` records differed between runs (its light-point counters were a per-thread
+/// buffer) and so did every host-model replay of them.
+#[test]
+fn counted_records_are_the_same_bytes_in_every_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/palm.toml");
+    if crate::util::shared_scenes().is_none() {
+        return;
+    }
+    let run = |out: &str, threads: &str| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_sism"))
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--algo",
+                "sism-sampled",
+                "--width",
+                "160",
+            ])
+            .args([
+                "--height",
+                "120",
+                "--machine",
+                "larrabee-24",
+                "--out",
+                out,
+                "--quiet",
+            ])
+            .current_dir(dir.path())
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(dir.path().join(out).join("records.bin")).unwrap()
+    };
+    let first = run("a", "2");
+    for (out, threads) in [("b", "2"), ("c", "1"), ("d", "3")] {
+        assert!(
+            run(out, threads) == first,
+            "records differ ({threads} host threads)"
+        );
+    }
+}

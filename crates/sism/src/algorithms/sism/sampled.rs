@@ -532,7 +532,14 @@ impl Kernel for SampledBin<'_> {
         // Occluder counts minus the centre's depth complexity, LIGHT_POINTS per sample.
         // A buffer reused across the bins a host thread runs: fresh allocations of this size would
         // cost a page fault per 4 KiB (more than the counting itself).
-        let mut counts = COUNTS.with(|c| std::mem::take(&mut *c.borrow_mut()));
+        // Not in a counted frame: there the buffer's address must not depend on which host thread
+        // ran the bins before this one (records are the same in every run).
+        let reuse = !sism_simd::HoldFrees::active();
+        let mut counts = if reuse {
+            COUNTS.with(|c| std::mem::take(&mut *c.borrow_mut()))
+        } else {
+            Vec::new()
+        };
         counts.clear();
         counts.resize(n_samples * LIGHT_POINTS, 0);
         // Σ Eq. 3 terms per sample (Eq. 4's analytic coverage, less the depth complexity).
@@ -578,7 +585,9 @@ impl Kernel for SampledBin<'_> {
                 1.0 - (self.depth[i] as f32 + sums[i]).clamp(0.0, 1.0)
             };
         }
-        COUNTS.with(|c| *c.borrow_mut() = counts);
+        if reuse {
+            COUNTS.with(|c| *c.borrow_mut() = counts);
+        }
         s.end_task();
         wedge.output()
     }
