@@ -20,9 +20,6 @@ struct State {
     c: Counters,
     enc: LineEncoder,
     record_lines: bool,
-    /// The recording thread's stack as a line range `[lo, hi)` (empty when unknown): lines in it
-    /// are not recorded ([`State::push_line`]).
-    stack: (u64, u64),
     done: Vec<TaskRecord>,
     /// The current epoch (a task, or the stretch between two tasks), never 0: a depth carries its
     /// epoch in its high 32 bits, so a value made in another epoch (an earlier task, another
@@ -94,59 +91,11 @@ impl State {
         self.epoch << 32 | local.min(MAX_LOCAL_DEPTH)
     }
 
-    /// Appends `line` to the task's stream, unless it lies in the thread's stack. A stack line is
-    /// the task's own locals: hot in L1 on any machine, and its address depends on which host
-    /// thread ran the task (a work-stealing pool's choice), so recording it would make the line
-    /// ids, and every cache figure of the replay, differ from run to run. Its access is still
-    /// counted (load and store lines, scalar memory operations).
+    /// Appends `line` to the task's stream.
     #[inline(always)]
     fn push_line(&mut self, line: u64, write: bool) {
-        if !(self.stack.0..self.stack.1).contains(&line) {
-            self.enc.push(line, write);
-        }
+        self.enc.push(line, write);
     }
-}
-
-/// The calling thread's stack as a range of 64-byte lines `[lo, hi)`, read once per thread
-/// (`pthread_getattr_np`); empty where it cannot be read (then stack lines are recorded).
-fn thread_stack_lines() -> (u64, u64) {
-    std::thread_local! {
-        static STACK: core::cell::Cell<Option<(u64, u64)>> = const { core::cell::Cell::new(None) };
-    }
-    STACK.with(|s| {
-        if let Some(r) = s.get() {
-            return r;
-        }
-        let r = read_thread_stack();
-        s.set(Some(r));
-        r
-    })
-}
-
-#[cfg(target_os = "linux")]
-fn read_thread_stack() -> (u64, u64) {
-    // SAFETY: `attr` is initialised by `pthread_getattr_np` before it is read and destroyed once;
-    // the out-pointers are valid locals.
-    unsafe {
-        let mut attr: libc::pthread_attr_t = core::mem::zeroed();
-        if libc::pthread_getattr_np(libc::pthread_self(), &mut attr) != 0 {
-            return (0, 0);
-        }
-        let mut addr: *mut libc::c_void = core::ptr::null_mut();
-        let mut size: libc::size_t = 0;
-        let ok = libc::pthread_attr_getstack(&attr, &mut addr, &mut size) == 0;
-        libc::pthread_attr_destroy(&mut attr);
-        if !ok || size == 0 {
-            return (0, 0);
-        }
-        let lo = addr as usize;
-        ((lo / 64) as u64, (lo.saturating_add(size)).div_ceil(64) as u64)
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn read_thread_stack() -> (u64, u64) {
-    (0, 0)
 }
 
 impl Default for Recorder {
@@ -168,7 +117,6 @@ impl Recorder {
                 c: Counters::default(),
                 enc: LineEncoder::default(),
                 record_lines,
-                stack: (0, 0),
                 done: Vec::new(),
                 epoch: next_epoch(),
                 top: 0,
@@ -189,7 +137,6 @@ impl Recorder {
         // The task's own epoch: what was made before it is ready when it begins.
         st.start_epoch();
         st.kind = kind;
-        st.stack = thread_stack_lines();
     }
 
     /// End the current task and return its record (not filed).

@@ -467,7 +467,6 @@ fn counting_records_memory() {
     }
     #[repr(C, align(64))]
     struct A([f32; 64]);
-    // On the heap: lines in the thread's stack are not recorded.
     let a = Box::new(A([1.0; 64]));
     let mut b = vec![0i32; 8];
     sism_simd::run_counting(&rec, K(&a.0, &mut b));
@@ -491,34 +490,6 @@ fn counting_records_memory() {
 }
 
 #[test]
-fn stack_lines_are_counted_but_not_recorded() {
-    struct K<'a>(&'a [f32]);
-    impl sism_simd::Kernel for K<'_> {
-        type Output = ();
-        #[inline(always)]
-        fn run<S: Simd>(self, s: S) {
-            s.begin_task(1);
-            let local = [1.0f32; 16];
-            let v = s.load_f(&local);
-            let w = s.load_f(self.0);
-            std::hint::black_box(s.add_f(v, w));
-            s.end_task();
-        }
-    }
-    let heap = vec![2.0f32; 16];
-    let rec = Recorder::new();
-    sism_simd::run_counting(&rec, K(&heap));
-    let t = rec.take_tasks();
-    assert_eq!(t[0].counters.load, 2, "both loads counted");
-    let lines: Vec<(u64, bool)> = t[0].lines.iter().collect();
-    let heap_line = heap.as_ptr() as u64 >> 6;
-    assert!(
-        !lines.is_empty() && lines.iter().all(|&(l, _)| l == heap_line || l == heap_line + 1),
-        "{lines:?}"
-    );
-}
-
-#[test]
 fn scalar_touches_join_the_line_stream_and_cost_nothing_natively() {
     struct K<'a>(&'a [u64], &'a mut [u64]);
     impl sism_simd::Kernel for K<'_> {
@@ -538,7 +509,6 @@ fn scalar_touches_join_the_line_stream_and_cost_nothing_natively() {
     }
     #[repr(C, align(64))]
     struct A([u64; 24]);
-    // On the heap: lines in the thread's stack are not recorded.
     let a = Box::new(A([2; 24]));
     let mut b = Box::new(A([0; 24]));
     assert_eq!(sism_simd::run_native(K(&a.0, &mut b.0)), 40);
