@@ -78,11 +78,7 @@ pub fn resolve(path: &Path) -> PathBuf {
             _ => break PathBuf::new(),
         }
     };
-    let mut out = if base.as_os_str().is_empty() {
-        PathBuf::new()
-    } else {
-        base
-    };
+    let mut out = base;
     let tail: PathBuf = rest.iter().rev().collect();
     let source = if out.as_os_str().is_empty() { abs } else { tail };
     for c in source.components() {
