@@ -100,6 +100,18 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
         assert!(value(row, "mae") < 0.01, "{name} MAE on the plate:\n{csv}");
     }
 
+    // ꟻLIP of the shaded views: in [0, 1] for every row, falling with the reference's spp, small
+    // where SISM is close.
+    for row in 0..rows.len() {
+        let f = value(row, "flip");
+        assert!((0.0..=1.0).contains(&f), "flip {f}:\n{csv}");
+    }
+    assert!(
+        value(1, "flip") < value(0, "flip"),
+        "ꟻLIP must fall with spp:\n{csv}"
+    );
+    assert!(value(2, "flip") < 0.05, "sism's ꟻLIP on the plate:\n{csv}");
+
     // JSON parses and carries the rows and the truth's settings.
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("bench.json")).unwrap()).unwrap();
@@ -107,6 +119,7 @@ fn bench_on_the_plate_writes_table_json_plot_and_truth() {
     assert_eq!(json["truth"]["spp"], 256);
     assert_eq!(json["rows"][0]["times_ms"].as_array().unwrap().len(), 1);
     assert!((json["rows"][2]["error"]["mae"].as_f64().unwrap() - value(2, "mae")).abs() < 1e-6);
+    assert!((json["rows"][2]["error"]["flip"].as_f64().unwrap() - value(2, "flip")).abs() < 1e-6);
 
     // The plot decodes at its size; the truth's images are there.
     let png = image::open(out.join("bench.png")).expect("bench.png decodes");

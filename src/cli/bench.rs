@@ -30,7 +30,7 @@ pub struct Args {
     /// Light-disk samples per receiver of the truth render.
     #[arg(long, default_value_t = 1024)]
     truth_spp: u32,
-    /// Score against this visibility PFM instead of rendering a truth.
+    /// Score against this visibility image (PFM or OpenEXR) instead of rendering a truth.
     #[arg(long)]
     truth: Option<PathBuf>,
     /// Timed runs per configuration; the median is reported.
@@ -103,7 +103,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let progress = !a.quiet;
     let (truth, truth_info) = match &a.truth {
         Some(path) => {
-            let image = pfm::read_pfm(path).with_context(|| format!("--truth {}", path.display()))?;
+            let image =
+                sism::output::read_visibility(path).with_context(|| format!("--truth {}", path.display()))?;
             ensure!(
                 (image.width, image.height) == (width, height),
                 "--truth {}: image is {}x{}, the bench renders {width}x{height} (set --width/--height to match)",
@@ -112,6 +113,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 image.height
             );
             pfm::write_pfm(&truth_dir.join("visibility.pfm"), &image)?;
+            sism::output::exr::write_visibility_exr(&truth_dir.join("visibility.exr"), &image)?;
             pictures::write_visibility_png(&truth_dir.join("visibility.png"), &image)?;
             let info = TruthInfo {
                 spp: None,
@@ -183,7 +185,7 @@ fn to_table(report: &BenchReport) -> String {
         report.repeats,
     );
     s += &format!(
-        "{:<18} {:>7} {:>12} {:>10} {:>10} {:>10} {:>13} {:>14} {:>9}\n",
+        "{:<18} {:>7} {:>12} {:>10} {:>10} {:>10} {:>13} {:>9} {:>14} {:>9}\n",
         "algorithm",
         "setting",
         "median ms",
@@ -191,6 +193,7 @@ fn to_table(report: &BenchReport) -> String {
         "RMSE",
         "p99",
         "penumbra MAE",
+        "ꟻLIP",
         "ref ms at MAE",
         "ref ÷ it"
     );
@@ -201,11 +204,13 @@ fn to_table(report: &BenchReport) -> String {
             None if r.algorithm == "reference" => (String::new(), String::new()),
             None => ("outside".into(), "-".into()),
         };
+        let flip = e.flip.map_or("-".to_string(), |f| format!("{f:.5}"));
         s += &format!(
-            "{:<18} {:>7} {:>12.2} {:>10.6} {:>10.6} {:>10.6} {:>13.6} {:>14} {:>9}\n",
-            r.algorithm, r.setting, r.median_ms, e.mae, e.rmse, e.p99, e.penumbra_mae, at, ratio
+            "{:<18} {:>7} {:>12.2} {:>10.6} {:>10.6} {:>10.6} {:>13.6} {:>9} {:>14} {:>9}\n",
+            r.algorithm, r.setting, r.median_ms, e.mae, e.rmse, e.p99, e.penumbra_mae, flip, at, ratio
         );
     }
+    s += "ꟻLIP: mean LDR-ꟻLIP (NVIDIA's code, 67 ppd) between the truth's and the row's shaded views\n";
     s += "ref ms at MAE: the reference's time at the row's MAE, log-log interpolated between the spp \
 settings that bracket it (\"outside\": beyond the sweep; widen --spp-list)\n";
     s

@@ -6,6 +6,7 @@ mod closed_forms;
 mod convergence;
 mod declared_work;
 mod docs;
+mod formats;
 mod gaussian;
 mod golden;
 mod hardening;

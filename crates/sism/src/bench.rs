@@ -353,20 +353,25 @@ pub fn bench_scene(
     for c in candidates {
         bar.set_message(format!("{} {}", c.algorithm.name, c.setting));
         let mut times_ms = Vec::with_capacity(repeats as usize);
-        let mut first: Option<VisibilityImage> = None;
+        let mut first: Option<RenderResult> = None;
         for _ in 0..repeats {
             let t0 = Instant::now();
             let result = render::render(scene, c.algorithm, &c.params, &RenderOptions::default());
             times_ms.push(total_ms(&result, t0));
-            first.get_or_insert(result.visibility);
+            first.get_or_insert(result);
             bar.inc(1);
         }
-        let image = first.expect("repeats >= 1");
-        let error = metrics::compare(truth, &image).map_err(|e| BenchError::Score {
-            algorithm: c.algorithm.name.into(),
-            setting: c.setting.clone(),
-            source: e,
-        })?;
+        let first = first.expect("repeats >= 1");
+        // ꟻLIP shades both with this frame's receivers (the eye pass is the same for every
+        // candidate and for the truth).
+        let error =
+            metrics::compare_frame(scene, &first.receivers, truth, &first.visibility).map_err(|e| {
+                BenchError::Score {
+                    algorithm: c.algorithm.name.into(),
+                    setting: c.setting.clone(),
+                    source: e,
+                }
+            })?;
         rows.push(BenchRow {
             algorithm: c.algorithm.name.into(),
             family: c.algorithm.family.name().into(),
@@ -442,7 +447,7 @@ fn total_ms(result: &RenderResult, t0: Instant) -> f64 {
 
 /// The columns of the table and of `bench.csv`.
 pub const CSV_HEADER: &str = "algorithm,setting,median_ms,mae,rmse,p99,penumbra_mae,max,share_over_0_1,\
-compared,penumbra_pixels,reference_ms_at_mae,reference_ratio,sim_ms,pareto";
+compared,penumbra_pixels,reference_ms_at_mae,reference_ratio,sim_ms,pareto,flip";
 
 /// `bench.csv`: a header line, then one line per candidate.
 pub fn to_csv(report: &BenchReport) -> String {
@@ -455,7 +460,7 @@ pub fn to_csv(report: &BenchReport) -> String {
             None => (String::new(), String::new()),
         };
         s += &format!(
-            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{at},{ratio},{},{}\n",
+            "{},{},{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{at},{ratio},{},{},{}\n",
             r.algorithm,
             r.setting,
             r.median_ms,
@@ -468,7 +473,8 @@ pub fn to_csv(report: &BenchReport) -> String {
             e.compared,
             e.penumbra_pixels,
             r.sim_ms.map_or(String::new(), |t| format!("{t:.3}")),
-            r.pareto
+            r.pareto,
+            e.flip.map_or(String::new(), |f| format!("{f:.6}")),
         );
     }
     s

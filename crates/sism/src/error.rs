@@ -84,6 +84,16 @@ pub enum InputError {
         /// The mesh file.
         path: PathBuf,
     },
+    /// An image file (OpenEXR, or one of unknown format) is malformed or not what was expected.
+    #[error("{format} image {path}: {message}")]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// The format it was read as, e.g. "OpenEXR".
+        format: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// A PFM image is malformed or not what was expected.
     #[error("PFM image {path}: {message}")]
     Pfm {

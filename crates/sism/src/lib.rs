@@ -71,6 +71,7 @@ pub mod input;
 pub mod machine;
 pub mod metrics;
 pub mod output;
+pub mod perceptual;
 pub mod progress;
 pub mod raster;
 pub mod render;

@@ -31,6 +31,9 @@ pub struct ErrorReport {
     pub penumbra_pixels: u64,
     /// Mean absolute error over penumbra pixels (0 when there are none).
     pub penumbra_mae: f64,
+    /// Mean ꟻLIP between the two frames' shaded views ([`crate::perceptual`]), [0, 1]; `None` where
+    /// the comparison had no shading (two bare visibility files).
+    pub flip: Option<f64>,
 }
 
 /// Why two images cannot be compared.
@@ -105,6 +108,19 @@ pub fn abs_error_map(
         .collect())
 }
 
+/// [`compare`], plus the mean ꟻLIP of the two frames' shaded views: both images are visibility of
+/// the frame whose receivers are `receivers` in `scene`.
+pub fn compare_frame(
+    scene: &crate::Scene,
+    receivers: &crate::frame::Receivers,
+    reference: &VisibilityImage,
+    test: &VisibilityImage,
+) -> Result<ErrorReport, CompareError> {
+    let mut report = compare(reference, test)?;
+    report.flip = Some(crate::perceptual::flip_of_frame(scene, receivers, reference, test)?.mean());
+    Ok(report)
+}
+
 /// Compares `test` against `reference`: both must hold only contract values ([`check_values`]) and
 /// share at least one receiver.
 pub fn compare(reference: &VisibilityImage, test: &VisibilityImage) -> Result<ErrorReport, CompareError> {
@@ -145,6 +161,7 @@ pub fn compare(reference: &VisibilityImage, test: &VisibilityImage) -> Result<Er
         share_over_0_1: bad as f64 / n as f64,
         penumbra_pixels: pen_n,
         penumbra_mae: if pen_n > 0 { pen_sum / pen_n as f64 } else { 0.0 },
+        flip: None,
     })
 }
 
@@ -157,7 +174,11 @@ impl std::fmt::Display for ErrorReport {
         writeln!(f, "max |error|          {:.6}", self.max)?;
         writeln!(f, "share |error| > 0.1  {:.6}", self.share_over_0_1)?;
         writeln!(f, "penumbra pixels      {}", self.penumbra_pixels)?;
-        write!(f, "penumbra MAE         {:.6}", self.penumbra_mae)
+        write!(f, "penumbra MAE         {:.6}", self.penumbra_mae)?;
+        if let Some(flip) = self.flip {
+            write!(f, "\nꟻLIP (mean, LDR)    {flip:.6}")?;
+        }
+        Ok(())
     }
 }
 

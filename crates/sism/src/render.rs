@@ -365,20 +365,21 @@ pub fn render_on_machine(
     }
 }
 
-/// Writes `visibility.pfm`, `visibility.png`, `shaded.png`, `stats.json` and `stats.txt` into `dir`
-/// (created if missing).
+/// Writes `visibility.pfm`, `visibility.exr`, `visibility.png`, `shaded.png`, `shaded.exr`,
+/// `stats.json` and `stats.txt` into `dir` (created if missing).
 pub fn write_outputs(dir: &Path, scene: &Scene, result: &RenderResult) -> crate::Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::create_dir(dir, e))?;
-    let pfm_path = dir.join("visibility.pfm");
-    pfm::write_pfm(&pfm_path, &result.visibility)?;
-    pictures::write_visibility_png(&dir.join("visibility.png"), &result.visibility)?;
-    let (lo, hi) = scene.bounds();
-    pictures::write_shaded_png(
-        &dir.join("shaded.png"),
-        &result.receivers,
-        &result.visibility,
-        &scene.light,
-        (lo + hi) * 0.5,
+    let v = &result.visibility;
+    pfm::write_pfm(&dir.join("visibility.pfm"), v)?;
+    crate::output::exr::write_visibility_exr(&dir.join("visibility.exr"), v)?;
+    pictures::write_visibility_png(&dir.join("visibility.png"), v)?;
+    let shades = pictures::shade_scene(scene, &result.receivers, v);
+    pictures::write_shaded_png(&dir.join("shaded.png"), &shades, v.width, v.height)?;
+    crate::output::exr::write_rgb_half_exr(
+        &dir.join("shaded.exr"),
+        v.width,
+        v.height,
+        &pictures::shaded_linear(&shades),
     )?;
     result.stats.write(dir)
 }

@@ -1,6 +1,7 @@
 //! Files a render writes (CONTRACTS.md "Images written by a render") and reads back. The statistics'
 //! files are written by [`crate::stats::StatsReport::write`].
 
+pub mod exr;
 pub mod guard;
 pub mod pfm;
 pub mod pictures;
@@ -50,6 +51,23 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> crate::Result<()> {
         let _ = std::fs::remove_file(&tmp);
         crate::Error::write(path, e)
     })
+}
+
+/// Reads a visibility image from a PFM or an OpenEXR file, told apart by their first bytes (not by
+/// the name): `compare`, `bench --truth` and `trace run --reference` take either.
+pub fn read_visibility(path: &Path) -> Result<crate::VisibilityImage, crate::InputError> {
+    let bytes = crate::input::read_file(path, "visibility image", crate::input::MAX_IMAGE_BYTES)?;
+    if bytes.starts_with(&exr::MAGIC) {
+        exr::decode_visibility(path, &bytes)
+    } else if bytes.starts_with(b"P") {
+        pfm::decode_pfm(path, &bytes)
+    } else {
+        Err(crate::InputError::Image {
+            path: path.into(),
+            format: "visibility",
+            message: "is neither a PFM (starts with `Pf`) nor an OpenEXR file".into(),
+        })
+    }
 }
 
 /// Writes `image` to `path` as PNG (encoded in memory, then [`write_atomic`]).

@@ -21,6 +21,11 @@ pub fn write_pfm(path: &Path, image: &VisibilityImage) -> crate::Result<()> {
 /// Reads a one-channel PFM of either byte order into a top-to-bottom [`VisibilityImage`].
 pub fn read_pfm(path: &Path) -> Result<VisibilityImage, InputError> {
     let bytes = crate::input::read_file(path, "PFM image", crate::input::MAX_IMAGE_BYTES)?;
+    decode_pfm(path, &bytes)
+}
+
+/// [`read_pfm`] on bytes already read.
+pub fn decode_pfm(path: &Path, bytes: &[u8]) -> Result<VisibilityImage, InputError> {
     let bad = |message: String| InputError::Pfm {
         path: path.into(),
         message,

@@ -1,4 +1,5 @@
-//! PNG pictures for people: visibility in grey, a shaded view, and error heat maps.
+//! PNG pictures for people: visibility in grey, a shaded view, and error heat maps. The shaded view
+//! ([`shade`]) is also what `shaded.exr` holds and what ꟻLIP compares.
 //!
 //! Colours that carry meaning: misses (no surface) are a dark slate blue, receivers facing away from
 //! the light are dark red in `visibility.png` and unlit in `shaded.png`.
@@ -8,7 +9,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::frame::{Receivers, VisibilityImage, V_FACING_AWAY};
-use crate::scene::Light;
+use crate::scene::{Light, Scene};
 
 const MISS_RGB: [u8; 3] = [38, 44, 64];
 const FACING_AWAY_RGB: [u8; 3] = [90, 20, 20];
@@ -49,41 +50,100 @@ pub fn write_visibility_png(path: &Path, image: &VisibilityImage) -> crate::Resu
     save_rgb(path, image.width, image.height, rgb)
 }
 
-/// `shaded.png`: Lambert × V × distance falloff, plus a faint ambient term so geometry in umbra stays
-/// readable. Falloff is `(d_ref / |c - p|)^2` with `d_ref` the light's distance to the scene's
-/// bounding-box centre, so the middle of the scene is lit at about full intensity.
-pub fn write_shaded_png(
-    path: &Path,
+/// One pixel of the shaded view: a miss (no surface, drawn in the miss colour) or a grey level,
+/// linear in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shade {
+    /// The eye ray hits nothing.
+    Miss,
+    /// Linear grey level of a receiver, [0, 1].
+    Grey(f32),
+}
+
+/// The shaded view of `shaded.png`, `shaded.exr` and the ꟻLIP comparisons: albedo × (ambient +
+/// Lambert × V × distance falloff), the faint ambient term keeping geometry in umbra readable.
+/// Falloff is `(d_ref / |c - p|)^2` (at most 4) with `d_ref` the light's distance to
+/// `scene_center`, so the middle of the scene is lit at about full intensity. Receivers facing away
+/// (V = -1) get the ambient term only. Row-major, top row first.
+pub fn shade(
     receivers: &Receivers,
     visibility: &VisibilityImage,
     light: &Light,
     scene_center: Vec3,
-) -> crate::Result<()> {
+) -> Vec<Shade> {
     const ALBEDO: f32 = 0.8;
     const AMBIENT: f32 = 0.03;
     let c = light.center();
     let d_ref2 = (c - scene_center).length_squared().max(1e-12);
-    let rgb = receivers
+    receivers
         .pixels
         .iter()
         .zip(&visibility.values)
-        .flat_map(|(r, &v)| match r {
-            None => MISS_RGB,
+        .map(|(r, &v)| match r {
+            None => Shade::Miss,
             Some(r) => {
                 let to_light = c - r.position;
                 let dist2 = to_light.length_squared().max(1e-12);
                 let lambert = r.normal.dot(to_light / dist2.sqrt()).max(0.0);
+                // A NaN V on a receiver (not a contract value) shades as unlit, not as NaN.
                 let lit = if v >= 0.0 {
                     v * lambert * (d_ref2 / dist2).min(4.0)
                 } else {
                     0.0
                 };
-                let g = srgb8(ALBEDO * (AMBIENT + lit));
+                Shade::Grey(ALBEDO * (AMBIENT + lit))
+            }
+        })
+        .collect()
+}
+
+/// [`shade`] of a scene's frame: the light and bounds' centre taken from `scene`.
+pub fn shade_scene(scene: &Scene, receivers: &Receivers, visibility: &VisibilityImage) -> Vec<Shade> {
+    let (lo, hi) = scene.bounds();
+    shade(receivers, visibility, &scene.light, (lo + hi) * 0.5)
+}
+
+/// The shaded view as 8-bit sRGB, the bytes of `shaded.png` (and what ꟻLIP, an LDR metric, compares).
+pub fn shaded_srgb8(shades: &[Shade], width: u32, height: u32) -> image::RgbImage {
+    let rgb = shades
+        .iter()
+        .flat_map(|s| match *s {
+            Shade::Miss => MISS_RGB,
+            Shade::Grey(g) => {
+                let g = srgb8(g);
                 [g, g, g]
             }
         })
         .collect();
-    save_rgb(path, receivers.width, receivers.height, rgb)
+    image::RgbImage::from_raw(width, height, rgb).expect("one shade per pixel")
+}
+
+/// The shaded view as linear RGB (`shaded.exr`): receivers' grey levels as they are, misses in the
+/// miss colour converted from sRGB.
+pub fn shaded_linear(shades: &[Shade]) -> Vec<[f32; 3]> {
+    let miss = MISS_RGB.map(srgb8_to_linear);
+    shades
+        .iter()
+        .map(|s| match *s {
+            Shade::Miss => miss,
+            Shade::Grey(g) => [g; 3],
+        })
+        .collect()
+}
+
+/// 8-bit sRGB to linear [0, 1].
+fn srgb8_to_linear(v: u8) -> f32 {
+    let s = v as f32 / 255.0;
+    if s <= 0.040_45 {
+        s / 12.92
+    } else {
+        ((s + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// `shaded.png`: the [`shade`]d view in 8-bit sRGB.
+pub fn write_shaded_png(path: &Path, shades: &[Shade], width: u32, height: u32) -> crate::Result<()> {
+    crate::output::save_png(path, &shaded_srgb8(shades, width, height))
 }
 
 /// An error heat map: |error| from 0 (black) through red to yellow at `full_scale` and above; pixels

@@ -11,7 +11,7 @@ use crate::algorithms::{Algorithm, Params, PreparedScene, SceneCache};
 use crate::error::{ensure, Context};
 use crate::frame::VisibilityImage;
 use crate::machine::MachineConfig;
-use crate::output::pfm;
+use crate::output::{pfm, pictures};
 use crate::render::{self, RenderOptions};
 use crate::scene::Scene;
 
@@ -113,7 +113,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         ..Default::default()
     };
     let mut csv =
-        String::from("frame,host_ms,sim_ms,receivers,mae,p99,penumbra_mae,flicker_mean,flicker_p99\n");
+        String::from("frame,host_ms,sim_ms,receivers,mae,p99,penumbra_mae,flicker_mean,flicker_p99,flip\n");
     let mut all_flicker: Vec<f32> = Vec::new();
     let (mut prev, mut prev_ref): (Option<VisibilityImage>, Option<VisibilityImage>) = (None, None);
     // One scene for the whole trace, set to each frame in turn; the per-scene data (adjacency, BVH)
@@ -124,6 +124,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
     let mut host = Vec::new();
     let mut sims = Vec::new();
     let mut flicker_per_frame = Vec::new();
+    let mut flips = Vec::new();
     for (k, f) in trace.frames.iter().enumerate() {
         let same_geometry = shown_moves == Some(&f.mesh_moves[..]);
         apply_to(&mut scene, base, f, !same_geometry)
@@ -142,21 +143,31 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         });
         cache = Some(prepared.into_cache());
         let v = result.visibility;
-        let frame_path = out.join(format!("frame_{k:04}.pfm"));
-        pfm::write_pfm(&frame_path, &v)?;
+        pfm::write_pfm(&out.join(format!("frame_{k:04}.pfm")), &v)?;
+        crate::output::exr::write_visibility_exr(&out.join(format!("frame_{k:04}.exr")), &v)?;
+        let shades = pictures::shade_scene(&scene, &result.receivers, &v);
+        crate::output::exr::write_rgb_half_exr(
+            &out.join(format!("frame_{k:04}.shaded.exr")),
+            v.width,
+            v.height,
+            &pictures::shaded_linear(&shades),
+        )?;
         let reference = match options.reference {
             Some(dir) => {
-                let p = dir.join(format!("frame_{k:04}.pfm"));
-                Some(pfm::read_pfm(&p).with_context(|| format!("--reference: frame {k}"))?)
+                Some(read_reference_frame(dir, k).with_context(|| format!("--reference: frame {k}"))?)
             }
             None => None,
         };
         let error = match &reference {
-            Some(r) => {
-                Some(crate::metrics::compare(r, &v).with_context(|| format!("--reference: frame {k}"))?)
-            }
+            Some(r) => Some(
+                crate::metrics::compare_frame(&scene, &result.receivers, r, &v)
+                    .with_context(|| format!("--reference: frame {k}"))?,
+            ),
             None => None,
         };
+        if let Some(f) = error.as_ref().and_then(|e| e.flip) {
+            flips.push(f);
+        }
         let flicker = match (&prev, &reference, &prev_ref) {
             (Some(p), Some(r), Some(pr)) => Some(flicker_values(p, &v, Some((pr, r)))),
             (Some(p), None, _) => Some(flicker_values(p, &v, None)),
@@ -173,7 +184,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         flicker_per_frame.push(fl.map_or(f64::NAN, |f| f.0));
         let opt = |x: Option<f64>, digits: usize| x.map_or(String::new(), |v| format!("{v:.digits$}"));
         csv += &format!(
-            "{k},{host_ms:.3},{},{},{},{},{},{},{}\n",
+            "{k},{host_ms:.3},{},{},{},{},{},{},{},{}\n",
             opt(sim_ms, 3),
             v.values.iter().filter(|x| (0.0..=1.0).contains(*x)).count(),
             opt(error.as_ref().map(|e| e.mae), 6),
@@ -181,6 +192,7 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
             opt(error.as_ref().map(|e| e.penumbra_mae), 6),
             opt(fl.map(|f| f.0), 6),
             opt(fl.map(|f| f.1), 6),
+            opt(error.as_ref().and_then(|e| e.flip), 6),
         );
         prev = Some(v);
         prev_ref = reference;
@@ -197,6 +209,13 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         crate::metrics::median(&host),
         if options.reference.is_some() { "the reference's frame-to-frame change" } else { "zero (the frames' own change)" }
     );
+    let mut summary = summary;
+    if !flips.is_empty() {
+        summary += &format!(
+            "flip_mean {:.6}\n",
+            flips.iter().sum::<f64>() / flips.len() as f64
+        );
+    }
     crate::output::write_atomic(&out.join("frames.csv"), csv.as_bytes())?;
     crate::output::write_atomic(&out.join("summary.txt"), summary.as_bytes())?;
     crate::output::plots::trace::frames(
@@ -213,6 +232,19 @@ pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions)
         flicker_mean: flicker_per_frame,
         summary,
     })
+}
+
+/// Frame `k` of a reference run: `frame_NNNN.pfm`, or `frame_NNNN.exr` where no PFM is (a run
+/// whose PFMs were removed to save space).
+fn read_reference_frame(dir: &Path, k: usize) -> crate::Result<VisibilityImage> {
+    let pfm_path = dir.join(format!("frame_{k:04}.pfm"));
+    let exr_path = dir.join(format!("frame_{k:04}.exr"));
+    let path = if !pfm_path.exists() && exr_path.exists() {
+        exr_path
+    } else {
+        pfm_path
+    };
+    Ok(crate::output::read_visibility(&path)?)
 }
 
 /// `path` relative to `dir` when both are relative or both absolute (`../x` steps), else `path`:
