@@ -397,6 +397,7 @@ struct Tally {
     traces: u64,
     studies: u64,
     params: u64,
+    images: u64,
 }
 
 /// Stacks sum to every phase's and the frame's cycles; times are finite.
@@ -512,7 +513,7 @@ fn run_case(
     t: &mut Tally,
     kind: &mut &'static str,
 ) -> Result<(), String> {
-    match rng.below(26) {
+    match rng.below(28) {
         // Scene TOML, structured (and sometimes text) mutations, with the corpus meshes.
         0..=6 => {
             *kind = "scene";
@@ -578,6 +579,10 @@ fn run_case(
             *kind = "params";
             params_case(rng, dir, c, t)
         }
+        26..=27 => {
+            *kind = "image";
+            image_case(rng, dir, t)
+        }
         // Records: damaged bytes, resealed (size and checksum made right) so the deep checks run.
         _ => {
             *kind = "records";
@@ -625,6 +630,82 @@ fn run_case(
                     check_report(&machine::simulate(&records, &MachineConfig::larrabee_24()))
                 }
             }
+        }
+    }
+}
+
+/// A visibility image (OpenEXR or PFM) with contract values and awkward ones, damaged, then read:
+/// an error must name the file; an image read must hold width × height values, and comparing it
+/// with itself (or, with values out of the contract, refusing to) must not panic.
+fn image_case(rng: &mut Rng, dir: &Path, t: &mut Tally) -> Result<(), String> {
+    let (w, h) = (1 + rng.below(40) as u32, 1 + rng.below(30) as u32);
+    let values = (0..w * h)
+        .map(|_| match rng.below(8) {
+            0 => f32::NAN,
+            1 => -1.0,
+            2 => *rng.pick(&[f32::INFINITY, -0.0, 2.0, f32::MIN_POSITIVE, 1e30]),
+            _ => rng.below(1001) as f32 / 1000.0,
+        })
+        .collect();
+    let image = sism::VisibilityImage {
+        width: w,
+        height: h,
+        values,
+    };
+    let path = dir.join("image.bin");
+    // The file a case reads is rewritten by the next case on purpose: this process's guard
+    // against overwriting inputs would refuse it.
+    sism::output::guard::forget_inputs();
+    if rng.chance(2) {
+        sism::output::exr::write_visibility_exr(&path, &image).map_err(|e| e.to_string())?;
+    } else {
+        sism::output::pfm::write_pfm(&path, &image).map_err(|e| e.to_string())?;
+    }
+    let mut b = std::fs::read(&path).unwrap();
+    for _ in 0..rng.below(4) {
+        let n = b.len();
+        if n == 0 {
+            break;
+        }
+        match rng.below(4) {
+            0 => {
+                let k = rng.below(n);
+                b[k] ^= 1 << rng.below(8);
+            }
+            1 => {
+                let k = rng.below(n);
+                b[k] = *rng.pick(&[0x00u8, 0x01, 0x7F, 0x80, 0xFF]);
+            }
+            2 if n > 8 => {
+                let k = rng.below(n - 4);
+                let v = *rng.pick(&[0u32, 1, 0xFFFF, 1 << 30, u32::MAX]);
+                b[k..k + 4].copy_from_slice(&v.to_le_bytes());
+            }
+            _ => b.truncate(rng.below(n)),
+        }
+    }
+    std::fs::write(&path, &b).unwrap();
+    match sism::output::read_visibility(&path) {
+        Err(e) => {
+            let message = e.to_string();
+            if !message.contains("image.bin") {
+                return Err(format!("an image error that does not name the file: {message}"));
+            }
+            t.errors += 1;
+            Ok(())
+        }
+        Ok(v) => {
+            if v.values.len() != v.width as usize * v.height as usize {
+                return Err(format!(
+                    "{}x{} image with {} values",
+                    v.width,
+                    v.height,
+                    v.values.len()
+                ));
+            }
+            t.images += 1;
+            let _ = sism::metrics::compare(&v, &v);
+            Ok(())
         }
     }
 }
@@ -959,6 +1040,7 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
                 "machine.toml",
                 "records.bin",
                 "case.trace",
+                "image.bin",
             ] {
                 let _ = std::fs::copy(dir.path().join(f), keep.join(f));
             }
@@ -974,7 +1056,7 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
     std::panic::set_hook(hook);
     eprintln!(
         "fuzz: {} cases in {:.1} s: {} clean errors, {} renders ({} counted), {} replays, {} large scenes loaded only, \
-         {} traces round-tripped, {} studies collected, {} parameter sets resolved",
+         {} traces round-tripped, {} studies collected, {} parameter sets resolved, {} damaged images read",
         t.cases,
         start.elapsed().as_secs_f64(),
         t.errors,
@@ -984,7 +1066,8 @@ fn fuzz_inputs_never_panic_and_renders_stay_well_formed() {
         t.skipped_large,
         t.traces,
         t.studies,
-        t.params
+        t.params,
+        t.images
     );
     assert!(
         failures.is_empty(),

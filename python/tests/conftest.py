@@ -1,12 +1,14 @@
 """Fixtures: the repository's scenes and the `sism` command line the package is checked against.
 
-The command line is `$SISM_BIN`, else the workspace's `target/debug/sism` or `target/release/sism`
-(`cargo build` makes it). Without one, the tests that compare with it are skipped, unless `CI` is
-set: then they fail, as a missing yardstick must not pass silently.
+The command line is `$SISM_BIN`, else the workspace's `target/debug/sism` or `target/release/sism`;
+where there is none and `cargo` is on the PATH, it is built (`cargo build --bin sism`, a few minutes
+once). Without one, the tests that compare with it are skipped, unless `CI` is set: then they fail,
+as a missing yardstick must not pass silently.
 """
 
 import json
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -33,6 +35,12 @@ def _find_cli():
     for profile in ("debug", "release"):
         p = REPO / "target" / profile / "sism"
         if p.is_file():
+            return p
+    if shutil.which("cargo") and (REPO / "Cargo.toml").is_file():
+        print("building the sism command line the tests compare with (cargo build --bin sism)")
+        built = subprocess.run(["cargo", "build", "--bin", "sism"], cwd=REPO, check=False)
+        p = REPO / "target" / "debug" / "sism"
+        if built.returncode == 0 and p.is_file():
             return p
     return None
 

@@ -290,23 +290,28 @@ fn world(local: Vec3, origin: [f64; 3]) -> [String; 3] {
     out
 }
 
+/// The scene path as a trace's `scene` line holds it: UTF-8, not empty, no `#`, no control
+/// character, no space at either end (else the line would not read back as the same path).
+fn scene_line(scene: &Path) -> Result<&str, String> {
+    let text = scene.to_str().ok_or_else(|| {
+        format!(
+            "scene path {}: not UTF-8, which a trace file cannot hold",
+            scene.display()
+        )
+    })?;
+    if text.is_empty() || text.contains('#') || text.chars().any(char::is_control) || text.trim() != text {
+        return Err(format!(
+            "scene path {text:?}: a trace names its scene on one line, so the path cannot hold `#` (a comment), \
+             a control character or a space at either end; move or rename the scene"
+        ));
+    }
+    Ok(text)
+}
+
 /// The trace as text: every field of every frame. Its scene path must read back: UTF-8, no `#`, no
 /// control character, no space at either end; anything else is an error naming it.
 pub fn write(trace: &Trace) -> Result<String, String> {
-    let scene = trace.scene.to_str().ok_or_else(|| {
-        format!(
-            "scene path {}: not UTF-8, which a trace file cannot hold",
-            trace.scene.display()
-        )
-    })?;
-    if scene.is_empty() || scene.contains('#') || scene.chars().any(char::is_control) || scene.trim() != scene
-    {
-        return Err(format!(
-            "scene path {:?}: a trace names its scene on one line, so the path cannot hold `#` (a comment), \
-             a control character or a space at either end; move or rename the scene",
-            scene
-        ));
-    }
+    let scene = scene_line(&trace.scene)?;
     let mut s = format!("sism-trace 1\nscene {scene}\n");
     for f in &trace.frames {
         let [ex, ey, ez] = world(f.eye, trace.origin);
@@ -325,9 +330,10 @@ pub fn write(trace: &Trace) -> Result<String, String> {
 
 /// Checks that every frame of `trace` can be rendered over `scene`: finite positions within the
 /// format's bound, a camera the scene's rules accept (eye apart from the look-at point, field of view
-/// in range), a light radius that is finite and not negative, and mesh indices the scene has. The
-/// error names the frame (0-based) and what is wrong.
+/// in range), a light radius that is finite and not negative, mesh indices the scene has, and a
+/// scene path a trace file can hold. The error names the frame (0-based) and what is wrong.
 pub fn check(trace: &Trace, scene: &Scene) -> Result<(), String> {
+    scene_line(&trace.scene)?;
     let mut camera = scene.camera;
     for (k, f) in trace.frames.iter().enumerate() {
         let numbers = [f.eye, f.look_at, f.light_center]
