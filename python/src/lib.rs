@@ -207,22 +207,6 @@ fn find_algorithm(name: &str) -> PyResult<&'static registry::Algorithm> {
         })
 }
 
-fn check_machine_algorithm(algo: &registry::Algorithm) -> PyResult<()> {
-    if algo.kernels {
-        return Ok(());
-    }
-    Err(value_err(format!(
-        "machine= times algorithms that run on the simd kernels ({}); {} is not one",
-        registry::REGISTRY
-            .iter()
-            .filter(|a| a.kernels && a.family != Family::Test)
-            .map(|a| a.name)
-            .collect::<Vec<_>>()
-            .join(", "),
-        algo.name
-    )))
-}
-
 /// Renders one frame. Returns a dict: `visibility` (little-endian f32 bytes, rows top to bottom),
 /// `width`, `height`, `stats` (name → (value, unit)), `facts`, and with `machine` (a preset name
 /// or a machine TOML file) `machine` (per-step and per-phase reports, the frame's).
@@ -243,7 +227,7 @@ fn render<'py>(
     let out = PyDict::new(py);
     match machine {
         Some(m) => {
-            check_machine_algorithm(algorithm)?;
+            registry::ensure_kernels(algorithm, "machine=").map_err(py_err)?;
             let name = m.to_string_lossy().into_owned();
             let config = py.detach(|| sism::host::resolve_machine(&name)).map_err(py_err)?;
             let r = py
@@ -387,7 +371,7 @@ fn study<'py>(
     progress: bool,
 ) -> PyResult<Bound<'py, PyList>> {
     let algorithm = find_algorithm(algo)?;
-    check_machine_algorithm(algorithm)?;
+    registry::ensure_kernels(algorithm, "machine=").map_err(py_err)?;
     let resolved = algorithm
         .params(&param_pairs(params)?)
         .map_err(|e| py_err(e.into()))?;

@@ -48,17 +48,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "--frames repeats native frames; a --machine frame is counted once (its cycles do not \
 depend on the host's state)"
         );
-        anyhow::ensure!(
-            algo.kernels,
-            "--machine times algorithms that run on the simd kernels ({}); {} is not one",
-            sism::algorithms::REGISTRY
-                .iter()
-                .filter(|a| a.kernels && a.family != sism::algorithms::Family::Test)
-                .map(|a| a.name)
-                .collect::<Vec<_>>()
-                .join(", "),
-            algo.name
-        );
+        sism::algorithms::ensure_kernels(algo, "--machine")?;
         let config = super::resolve_machine(&m).context("--machine")?;
         let r = render::render_on_machine(&scene, algo, &params, &config, !a.quiet);
         render::write_outputs(&a.out, &scene, &r.result)?;

@@ -173,6 +173,25 @@ pub fn find(name: &str) -> Option<&'static Algorithm> {
     REGISTRY.iter().copied().find(|a| a.name == name)
 }
 
+/// Checks that `algorithm` can be counted and timed on a modelled machine (every phase runs on the
+/// simd kernels). The error names `option`, how the caller asked for a machine (`--machine`,
+/// `machine=`), and the algorithms that can be timed.
+pub fn ensure_kernels(algorithm: &Algorithm, option: &str) -> crate::Result<()> {
+    if algorithm.kernels {
+        return Ok(());
+    }
+    Err(crate::Error::invalid(format!(
+        "{option} times algorithms that run on the simd kernels ({}); {} is not one",
+        REGISTRY
+            .iter()
+            .filter(|a| a.kernels && a.family != Family::Test)
+            .map(|a| a.name)
+            .collect::<Vec<_>>()
+            .join(", "),
+        algorithm.name
+    )))
+}
+
 /// Names of every algorithm, in registry order.
 pub fn names() -> impl Iterator<Item = &'static str> {
     REGISTRY.iter().map(|a| a.name)

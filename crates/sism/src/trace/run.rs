@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::{apply_to, flicker_values, parse, summarize, Trace, TraceFrame};
 use crate::algorithms::{Algorithm, Params, PreparedScene, SceneCache};
-use crate::error::{ensure, Context};
+use crate::error::Context;
 use crate::frame::VisibilityImage;
 use crate::machine::MachineConfig;
 use crate::output::{pfm, pictures};
@@ -96,11 +96,9 @@ pub struct TraceRun {
 pub fn run(trace_path: &Path, trace: &Trace, base: &Scene, options: &RunOptions) -> crate::Result<TraceRun> {
     let algo = options.algorithm;
     let params = options.params;
-    ensure!(
-        options.machine.is_none() || algo.kernels,
-        "--machine times algorithms that run on the simd kernels; {} is not one",
-        algo.name
-    );
+    if options.machine.is_some() {
+        crate::algorithms::ensure_kernels(algo, "--machine")?;
+    }
     if let Some(r) = options.reference {
         crate::output::guard::protect_dir(r, "--reference");
         crate::output::staged::ensure_complete(r, RUN_KIND, "--reference")?;
