@@ -6,6 +6,30 @@
 use glam::Vec3;
 use sism_simd::{ScalarClass, Simd};
 
+/// `data[i]`, a scalar load counted by `s` ([`ScalarClass::Mem`]) whose line the caller has already
+/// put in the task's line stream with the whole slice (`s.scalar_read(data)` once, so a loop over a
+/// long array does not record the same line once per element).
+#[inline(always)]
+pub fn streamed<S: Simd, T: Copy>(s: S, data: &[T], i: usize) -> T {
+    s.scalar_op(ScalarClass::Mem);
+    data[i]
+}
+
+/// `-a` (three sign flips).
+#[inline(always)]
+pub fn neg<S: Simd>(s: S, a: Vec3) -> Vec3 {
+    for _ in 0..3 {
+        s.scalar_op(ScalarClass::Alu);
+    }
+    -a
+}
+
+/// `a.length()`: the square root of `a.dot(a)`.
+#[inline(always)]
+pub fn length<S: Simd>(s: S, a: Vec3) -> f32 {
+    s.s_fn(ScalarClass::Div, dot(s, a, a), f32::sqrt)
+}
+
 /// `a + b`.
 #[inline(always)]
 pub fn add<S: Simd>(s: S, a: Vec3, b: Vec3) -> Vec3 {
@@ -130,6 +154,8 @@ mod tests {
                 assert!(same(sub(s, a, b), a - b));
                 assert!(same(cross(s, a, b), a.cross(b)), "{a} x {b}");
                 assert_eq!(dot(s, a, b).to_bits(), a.dot(b).to_bits());
+                assert!(same(neg(s, a), -a));
+                assert_eq!(length(s, a).to_bits(), a.length().to_bits());
                 assert!(same(scale(s, a, b.y), a * b.y));
                 let (a2, b2) = (a.truncate(), b.truncate());
                 let same2 = |x: glam::Vec2, y: glam::Vec2| {

@@ -422,7 +422,9 @@ mod tests {
         #[inline(always)]
         fn run<S: sism_simd::Simd>(self, s: S) -> u32 {
             s.begin_task(self.0);
-            s.scalar_ops(self.0 as u64);
+            for _ in 0..self.0 {
+                s.scalar_op(sism_simd::ScalarClass::Alu);
+            }
             s.end_task();
             self.0 * 2
         }

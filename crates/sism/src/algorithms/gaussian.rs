@@ -22,11 +22,12 @@
 //! (see the README, "Contact-hardening soft shadows"), never on a scene the figures report.
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::params::{ChoiceParam, FloatParam, IntParam};
 use super::shadow_map::{self as sm, lookup::Method as MapMethod};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
+use crate::counted;
 use crate::exec::{task_kind, FrameLog};
 use crate::frame::V_FACING_AWAY;
 use crate::stats::StatsReport;
@@ -615,23 +616,27 @@ impl Kernel for UmbraSkip<'_> {
         s.begin_task(task_kind::SCREEN_PASS);
         let (w, h) = (self.width as i64, self.height as i64);
         let rows = self.out.len() / self.width.max(1);
-        s.scalar_ops(12 * self.out.len() as u64);
+        // Counted per pixel: the loop's branch, its index and value (the band's lines read here at
+        // once); for a pixel in penumbra each neighbour's clamped coordinates, index, load and
+        // compare, up to the first that is not fully lit, and the store when all are.
+        s.scalar_read(self.out);
         let mut skipped = 0;
         for row in 0..rows {
-            let y = (self.first_row + row) as i64;
+            let y = s.s_add(self.first_row, row) as i64;
             for x in 0..w {
-                let k = row * self.width + x as usize;
-                if self.out[k] <= 0.0 {
+                s.scalar_op(ScalarClass::Branch);
+                let k = s.s_add(s.s_mul(row, self.width), x as usize);
+                if s.s_le(counted::streamed(s, self.out, k), 0.0) {
                     continue;
                 }
-                let all = (-1..=1).all(|dy: i64| {
-                    (-1..=1).all(|dx: i64| {
-                        let (xx, yy) = ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1));
-                        self.s_img[(yy * w + xx) as usize] >= 1.0
-                    })
-                });
+                let lit = |dx: i64, dy: i64| {
+                    let xx = s.s_min(s.s_max(s.s_add(x, dx), 0), w - 1);
+                    let yy = s.s_min(s.s_max(s.s_add(y, dy), 0), h - 1);
+                    s.s_le(1.0, s.s_load(self.s_img, s.s_add(s.s_mul(yy, w), xx) as usize))
+                };
+                let all = (-1..=1).all(|dy: i64| (-1..=1).all(|dx: i64| lit(dx, dy)));
                 if all {
-                    self.out[k] = 0.0;
+                    s.s_store(self.out, k, 0.0);
                     skipped += 1;
                 }
             }

@@ -10,16 +10,17 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::Mask16;
+use sism_simd::{Mask16, ScalarClass, Simd};
 
 use super::params::{IntParam, U64Param};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::bvh::beam::{Beam, BEAM_RAYS};
 use crate::bvh::SceneBvh;
+use crate::counted;
 use crate::exec::FrameLog;
 use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
 use crate::sampling::{concentric_disk, Rng, Strata};
-use crate::scene::shapes::orthonormal_basis;
+use crate::scene::shapes::orthonormal_basis_counted;
 use crate::scene::topology::SceneTopology;
 use crate::scene::{Light, Scene};
 use crate::stats::StatsReport;
@@ -193,7 +194,18 @@ pub fn cast_primary_rays(scene: &Scene, bvh: &SceneBvh) -> Receivers {
 /// receiver's own triangle in f32, small against any feature of the scene.
 #[inline]
 pub fn ray_offset(bvh: &SceneBvh, p: Vec3) -> f32 {
-    2e-5 * (bvh.scene_diagonal + p.abs().max_element())
+    ray_offset_counted(sism_simd::Portable, bvh, p)
+}
+
+/// [`ray_offset`] counted by `s`: three absolute values, two maxima, an add and a multiply.
+#[inline(always)]
+fn ray_offset_counted<S: Simd>(s: S, bvh: &SceneBvh, p: Vec3) -> f32 {
+    for _ in 0..3 {
+        s.scalar_op(ScalarClass::Alu);
+    }
+    let a = p.abs();
+    let largest = s.s_max(a.x, s.s_max(a.y, a.z));
+    s.s_mul(2e-5, s.s_add(bvh.scene_diagonal, largest))
 }
 
 /// One receiver's shadow rays to a light disk: the offset origin, and the disk's basis
@@ -216,13 +228,28 @@ impl DiskRays {
     /// the receiver faces away from the centre.
     #[inline]
     pub fn new(bvh: &SceneBvh, center: Vec3, radius: f32, r: &Receiver) -> Option<DiskRays> {
-        let to_light = center - r.position;
-        if r.normal.dot(to_light) <= 0.0 {
+        Self::new_counted(sism_simd::Portable, bvh, center, radius, r)
+    }
+
+    /// [`DiskRays::new`] with its operations counted by `s` (the same rays).
+    #[inline(always)]
+    pub fn new_counted<S: Simd>(
+        s: S,
+        bvh: &SceneBvh,
+        center: Vec3,
+        radius: f32,
+        r: &Receiver,
+    ) -> Option<DiskRays> {
+        let to_light = counted::sub(s, center, r.position);
+        if s.s_le(counted::dot(s, r.normal, to_light), 0.0) {
             return None;
         }
-        let (t, b) = orthonormal_basis(to_light.normalize());
+        // glam's `normalize`: times the reciprocal of the length.
+        let unit = counted::scale(s, to_light, s.s_div(1.0, counted::length(s, to_light)));
+        let (t, b) = orthonormal_basis_counted(s, unit);
+        let offset = ray_offset_counted(s, bvh, r.position);
         Some(DiskRays {
-            origin: r.position + r.normal * ray_offset(bvh, r.position),
+            origin: counted::add(s, r.position, counted::scale(s, r.normal, offset)),
             normal: r.normal,
             center,
             radius,
@@ -249,9 +276,20 @@ impl DiskRays {
     /// receiver's tangent plane (hidden by the receiver's own surface) or at the origin.
     #[inline]
     pub fn ray(&self, target: Vec3) -> Option<(Vec3, f32)> {
-        let d = target - self.origin;
-        let len = d.length();
-        (len > 0.0 && d.dot(self.normal) > 0.0).then(|| (d / len, len))
+        self.ray_counted(sism_simd::Portable, target)
+    }
+
+    /// [`DiskRays::ray`] with its operations counted by `s` (the same ray).
+    #[inline(always)]
+    pub fn ray_counted<S: Simd>(&self, s: S, target: Vec3) -> Option<(Vec3, f32)> {
+        let d = counted::sub(s, target, self.origin);
+        let len = counted::length(s, d);
+        (s.s_lt(0.0, len) && s.s_lt(0.0, counted::dot(s, d, self.normal))).then(|| {
+            (
+                Vec3::new(s.s_div(d.x, len), s.s_div(d.y, len), s.s_div(d.z, len)),
+                len,
+            )
+        })
     }
 }
 

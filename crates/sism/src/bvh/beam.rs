@@ -15,7 +15,9 @@
 use glam::Vec3;
 use obvhs::bvh2::Bvh2;
 use obvhs::rt_triangle::RtTriangle;
-use sism_simd::{Mask16, Simd};
+use sism_simd::{Mask16, ScalarClass, Simd};
+
+use crate::counted;
 
 /// Rays of one beam: 16 vectors of 16 lanes.
 pub const BEAM_RAYS: usize = 256;
@@ -100,6 +102,19 @@ impl Beam {
 
     /// Adds the open segment `origin + t * dir`, `t` in (0, `t_max`); `dir` unit. Panics when full.
     pub fn push(&mut self, dir: Vec3, t_max: f32) {
+        self.push_counted(sism_simd::Portable, dir, t_max);
+    }
+
+    /// [`Beam::push`] counted by `s`: the slot's two index operations, four stores (the beam is a
+    /// task's scratch: its lines are recorded where the walk loads its vectors) and the count.
+    #[inline(always)]
+    pub fn push_counted<S: Simd>(&mut self, s: S, dir: Vec3, t_max: f32) {
+        for _ in 0..3 {
+            s.scalar_op(ScalarClass::Alu);
+        }
+        for _ in 0..4 {
+            s.scalar_op(ScalarClass::Mem);
+        }
         let (v, l) = (self.len / 16, self.len % 16);
         self.dx[v][l] = dir.x;
         self.dy[v][l] = dir.y;
@@ -276,32 +291,41 @@ impl BeamBvh {
         let zero = s.splat_f(0.0);
         let one = s.splat_f(1.0);
         while let Some((n, mut reach)) = stack.pop() {
+            // Counted: the pop (a load, the length's decrement, the loop's branch), the node's line
+            // and every operation of the cone test.
+            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Branch);
             let node = &self.nodes[n as usize];
             counts.nodes += 1;
-            // The walk's scalar part, for the machine model (free natively): the node's line and the
-            // cone test's arithmetic.
             s.scalar_read(std::slice::from_ref(node));
-            s.scalar_ops(20);
+            for _ in 0..4 {
+                s.scalar_op(ScalarClass::Mem); // centre and radius
+            }
             // Sphere against cone: outside when past either end of the segments or farther than its
             // radius from the plane through the cone's nearest generating line (which bounds the cone).
-            let v = node.center - o;
+            let v = counted::sub(s, node.center, o);
             let r = node.radius;
             // Whether the node is small against the beam's width where it lies: only then can single
             // vectors miss it, so only then are its box tests worth their cost.
             let small = match cone {
                 Some((sin, cos)) => {
-                    let along = v.dot(axis);
-                    if along < -r || along > longest + r {
+                    let along = counted::dot(s, v, axis);
+                    if s.s_lt(along, -r) || s.s_lt(s.s_add(longest, r), along) {
                         continue;
                     }
-                    let across = (v.length_squared() - along * along).max(0.0).sqrt();
-                    if across * cos - along * sin > r {
+                    let across2 = s.s_sub(counted::dot(s, v, v), s.s_mul(along, along));
+                    let across = s.s_fn(ScalarClass::Div, s.s_max(across2, 0.0), f32::sqrt);
+                    if s.s_lt(r, s.s_sub(s.s_mul(across, cos), s.s_mul(along, sin))) {
                         continue;
                     }
-                    r * cos < BOX_TEST_RATIO * (along + r) * sin
+                    s.s_lt(
+                        s.s_mul(r, cos),
+                        s.s_mul(s.s_mul(BOX_TEST_RATIO, s.s_add(along, r)), sin),
+                    )
                 }
                 None => {
-                    if v.length() > longest + r {
+                    if s.s_lt(s.s_add(longest, r), counted::length(s, v)) {
                         continue;
                     }
                     true
@@ -309,10 +333,10 @@ impl BeamBvh {
             };
             if let (true, Some((ix, iy, iz))) = (small, &slabs) {
                 // Slabs, conservatively: the box is inflated, the far distance stretched a little.
-                let (lo, hi) = (node.lo - o, node.hi - o);
+                let (lo, hi) = (counted::sub(s, node.lo, o), counted::sub(s, node.hi, o));
                 let mut kept = 0u16;
                 for v in 0..vectors {
-                    if reach & (1 << v) == 0 || !open[v].any() {
+                    if s.s_branch(reach & (1 << v) == 0 || !open[v].any()) {
                         continue;
                     }
                     counts.box_vectors += 1;
@@ -326,42 +350,55 @@ impl BeamBvh {
                         s.mask_and(open[v], s.cmp_le_f(near, far)),
                         s.mask_and(s.cmp_ge_f(far, zero), s.cmp_le_f(near, tm[v])),
                     );
-                    if meets.any() {
+                    if s.s_branch(meets.any()) {
                         kept |= 1 << v;
                     }
                 }
-                if kept == 0 {
+                if s.s_branch(kept == 0) {
                     continue;
                 }
                 reach = kept;
             }
-            if node.count == 0 {
+            if s.s_branch(s.s_read(&node.count) == 0) {
                 // Nearer child (along the beam) popped first: occluders near the receiver end the
                 // walk sooner.
                 let (l, rr) = (node.first, node.first + 1);
-                let dl = (self.nodes[l as usize].center - o).dot(axis);
-                let dr = (self.nodes[rr as usize].center - o).dot(axis);
-                if dl <= dr {
-                    stack.push((rr, reach));
-                    stack.push((l, reach));
+                let dl = counted::dot(
+                    s,
+                    counted::sub(s, s.s_read(&self.nodes[l as usize].center), o),
+                    axis,
+                );
+                let dr = counted::dot(
+                    s,
+                    counted::sub(s, s.s_read(&self.nodes[rr as usize].center), o),
+                    axis,
+                );
+                if s.s_le(dl, dr) {
+                    s.s_push(stack, (rr, reach));
+                    s.s_push(stack, (l, reach));
                 } else {
-                    stack.push((l, reach));
-                    stack.push((rr, reach));
+                    s.s_push(stack, (l, reach));
+                    s.s_push(stack, (rr, reach));
                 }
                 continue;
             }
             let leaf = &self.triangles[node.first as usize..(node.first + node.count) as usize];
             s.scalar_read(leaf);
             for tri in leaf {
-                s.scalar_ops(12);
+                // Counted: the triangle's four vectors' loads (their lines read with the leaf), the
+                // loop's branch, the offset corner and the plane's distance.
+                for _ in 0..4 {
+                    s.scalar_op(ScalarClass::Mem);
+                }
+                s.scalar_op(ScalarClass::Branch);
                 // obvhs' RtTriangle::intersect, lane-wise, the same operations in the same order.
-                let c = Vec3::from(tri.v0) - o;
+                let c = counted::sub(s, Vec3::from(tri.v0), o);
                 let (e1, e2, ng) = (Vec3::from(tri.e1), Vec3::from(tri.e2), Vec3::from(tri.ng));
-                let ngc = s.splat_f(ng.dot(c));
+                let ngc = s.splat_f(counted::dot(s, ng, c));
                 let (cx, cy, cz) = (s.splat_f(c.x), s.splat_f(c.y), s.splat_f(c.z));
                 for v in 0..vectors {
                     let m = open[v];
-                    if reach & (1 << v) == 0 || !m.any() {
+                    if s.s_branch(reach & (1 << v) == 0 || !m.any()) {
                         continue;
                     }
                     counts.triangle_vectors += 1;
@@ -382,7 +419,7 @@ impl BeamBvh {
                         s.mask_and(m, inside),
                         s.mask_and(s.cmp_gt_f(t, zero), s.cmp_lt_f(t, tm[v])),
                     );
-                    if hit.any() {
+                    if s.s_branch(hit.any()) {
                         out[v] = s.mask_or(out[v], hit);
                         open[v] = s.mask_andn(hit, m);
                         if !open[v].any() {

@@ -31,7 +31,7 @@ use std::hint::black_box;
 use std::sync::atomic::AtomicI32;
 use std::time::Instant;
 
-use sism_simd::{Kernel, Mask16, Recorder, Simd, TaskRecord};
+use sism_simd::{Kernel, Mask16, Recorder, ScalarClass, Simd, TaskRecord};
 
 use crate::machine::config::MachineConfig;
 use crate::machine::timing;
@@ -506,9 +506,13 @@ impl Kernel for ScalarK {
             b = b.rotate_left(7) ^ a;
             c = c.wrapping_add(b) ^ 0x55aa;
             d = d.wrapping_mul(22_695_477).wrapping_add(c);
-            // Two multiplies, three adds, a shift, a rotate, two xors, the loop's increment and
-            // branch.
-            s.scalar_ops(11);
+            // Counted as they execute: two multiplies, three adds, a shift, a rotate, two xors
+            // (wrapping integer operations, which the counted `s_mul`/`s_add` are not), the loop's
+            // increment and its branch.
+            for _ in 0..10 {
+                s.scalar_op(ScalarClass::Alu);
+            }
+            s.scalar_op(ScalarClass::Branch);
         }
         a ^ b ^ c ^ d
     }
@@ -691,7 +695,7 @@ impl Kernel for EmptyK {
     type Output = u32;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> u32 {
-        s.scalar_ops(1);
+        s.scalar_op(ScalarClass::Alu);
         black_box(1)
     }
 }

@@ -109,11 +109,23 @@ pub fn disk(name: &str, center: Vec3, normal: Vec3, radius: f32, segments: u32) 
 /// Two unit vectors completing `n` (unit) to a right-handed orthonormal basis, without a branch on a
 /// near-zero component (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017).
 pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = 1.0f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    orthonormal_basis_counted(sism_simd::Portable, n)
+}
+
+/// [`orthonormal_basis`] with its operations counted by `s` (the same bits).
+#[inline(always)]
+pub fn orthonormal_basis_counted<S: sism_simd::Simd>(s: S, n: Vec3) -> (Vec3, Vec3) {
+    use sism_simd::ScalarClass;
+    let sign = s.s_fn(ScalarClass::Alu, n.z, |z| 1.0f32.copysign(z));
+    let a = s.s_div(-1.0, s.s_add(sign, n.z));
+    let b = s.s_mul(s.s_mul(n.x, n.y), a);
+    // `-sign * n.x` is `(-sign) * n.x`: the same value as the negated product.
+    let t = Vec3::new(
+        s.s_add(1.0, s.s_mul(s.s_mul(s.s_mul(sign, n.x), n.x), a)),
+        s.s_mul(sign, b),
+        s.s_mul(-sign, n.x),
+    );
+    let bt = Vec3::new(b, s.s_add(sign, s.s_mul(s.s_mul(n.y, n.y), a)), -n.y);
     (t, bt)
 }
 

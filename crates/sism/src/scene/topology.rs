@@ -200,7 +200,24 @@ impl SceneTopology {
     /// True when triangle `t` counts as an occluder for a light at `c` (see the module docs).
     #[inline]
     pub fn counts(&self, t: usize, c: Vec3) -> bool {
-        !self.duplicate[t] && (!self.closed[t] || faces_point(&self.triangles[t], c))
+        self.counts_counted(sism_simd::Portable, t, c)
+    }
+
+    /// [`SceneTopology::counts`] with its loads, branches and plane test counted by `s` (the same
+    /// answer): the two flags' loads and branches, the corners' read and the facing test's cross and
+    /// dot products.
+    #[inline(always)]
+    pub fn counts_counted<S: sism_simd::Simd>(&self, s: S, t: usize, c: Vec3) -> bool {
+        use crate::counted::{cross, dot, sub};
+        if s.s_branch(s.s_load(&self.duplicate, t)) {
+            return false;
+        }
+        if !s.s_branch(s.s_load(&self.closed, t)) {
+            return true;
+        }
+        let tri = s.s_read(&self.triangles[t]);
+        let n = cross(s, sub(s, tri[1], tri[0]), sub(s, tri[2], tri[0]));
+        s.s_lt(0.0, dot(s, n, sub(s, c, tri[0])))
     }
 }
 

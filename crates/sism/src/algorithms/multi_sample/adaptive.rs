@@ -30,7 +30,7 @@
 //! A point below a receiver's tangent plane neither lights nor flags it. All steps are kernels.
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::super::params::{ChoiceParam, IntParam};
 use super::super::rbsm::visibility::{Function, Settings};
@@ -42,6 +42,7 @@ use super::super::{
 use super::{disk_normal, light_points, LATTICE_SIDE};
 use crate::algorithms::sism::grid::SampleIn;
 use crate::algorithms::sism::light_samples::{self, LightSamples};
+use crate::counted;
 use crate::exec::{task_kind, FrameLog, Phase};
 use crate::frame::Receiver;
 use crate::stats::StatsReport;
@@ -453,18 +454,41 @@ impl Kernel for SampleCodes<'_> {
         s.begin_task(task_kind::ADAPTIVE_PASS);
         s.scalar_read(self.samples);
         s.scalar_read(self.codes);
-        s.scalar_ops(10 * self.samples.len() as u64);
-        for (k, smp) in self.samples.iter().enumerate() {
-            let facing =
-                self.receivers[smp.pixel as usize].is_some_and(|r| r.normal.dot(self.point - smp.q) > 0.0);
-            let c = self.codes[k] as u8;
+        // Counted per sample: the loop's branch, its pixel and position (lines read above), the
+        // receiver's tag (its line here), normal and facing test, the code's load, conversion and
+        // store, and the value's choice, load or conversion, and store.
+        for k in 0..self.samples.len() {
+            let smp = &self.samples[k];
+            s.scalar_op(ScalarClass::Branch);
+            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Mem);
+            let r = &self.receivers[smp.pixel as usize];
+            s.scalar_read(std::slice::from_ref(r));
+            s.scalar_op(ScalarClass::Mem);
+            let facing = s.s_branch(r.is_some())
+                && r.is_some_and(|r| {
+                    s.scalar_op(ScalarClass::Mem);
+                    s.s_lt(0.0, counted::dot(s, r.normal, counted::sub(s, self.point, smp.q)))
+                });
+            let c = s.s_fn(ScalarClass::Alu, counted::streamed(s, self.codes, k), |c: f32| {
+                c as u8
+            });
             self.code[k] = if facing { c } else { 0 };
+            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Branch);
             self.out_v[k] = match (facing, self.v) {
                 (false, _) => 0.0,
-                (true, Some(v)) => v[k],
-                (true, None) => f32::from(c & 1),
+                (true, Some(v)) => s.s_load(v, k),
+                (true, None) => {
+                    s.scalar_op(ScalarClass::Alu);
+                    s.scalar_op(ScalarClass::Alu);
+                    f32::from(c & 1)
+                }
             };
+            s.scalar_op(ScalarClass::Mem);
         }
+        s.scalar_write(self.code);
+        s.scalar_write(self.out_v);
         s.end_task();
     }
 }
@@ -485,27 +509,42 @@ impl Kernel for Reprojection<'_> {
         for c in &self.codes {
             s.scalar_read(c);
         }
-        s.scalar_ops(12 * n as u64);
+        // Counted per receiver: the loop's branch; per code its load and two bit tests with their
+        // adds; the `SS` choice; the map's load, tests and store; `SS`'s store.
         let mut ss = vec![0u8; n];
-        for k in 0..n {
+        for (k, ss_k) in ss.iter_mut().enumerate() {
+            s.scalar_op(ScalarClass::Branch);
             let (mut lit, mut flags) = (0u8, 0u8);
             for c in &self.codes {
-                lit += c[k] & 1;
-                flags += (c[k] >> 1) & 1;
+                let ck = counted::streamed(s, c, k);
+                for _ in 0..5 {
+                    s.scalar_op(ScalarClass::Alu);
+                }
+                lit += ck & 1;
+                flags += (ck >> 1) & 1;
             }
-            let v = if flags >= 2 { 5 } else { lit };
+            let v = if s.s_branch(flags >= 2) { 5 } else { lit };
+            let old = counted::streamed(s, self.vm, k);
             let vm = &mut self.vm[k];
             if self.first_level {
+                s.scalar_op(ScalarClass::Branch);
                 *vm = match v {
                     0 => 0.0,
                     4 => 1.0,
                     _ => 0.5,
                 };
-            } else if (*vm == 0.0 && v != 0) || (*vm == 1.0 && v != 4) {
+                s.scalar_op(ScalarClass::Mem);
+            } else if (s.s_branch(old == 0.0) && s.s_branch(v != 0))
+                || (s.s_branch(old == 1.0) && s.s_branch(v != 4))
+            {
                 *vm = 0.5;
+                s.scalar_op(ScalarClass::Mem);
             }
-            ss[k] = v;
+            *ss_k = v;
+            s.scalar_op(ScalarClass::Mem);
         }
+        s.scalar_write(self.vm);
+        s.scalar_write(&ss);
         s.end_task();
         ss
     }
@@ -527,12 +566,14 @@ impl Kernel for Evaluation<'_> {
         s.begin_task(task_kind::ADAPTIVE_PASS);
         let (w, h, d) = (self.width as i64, self.height as i64, self.div as i64);
         let mut found = false;
-        let mut tested = 0u64;
+        // Counted per grid point: the loop's branch, its index, `SS`'s load and range test; per
+        // neighbour its coordinates, the bounds tests, index, load and compare, up to the first
+        // that differs.
         'grid: for y in (0..h).step_by(d as usize) {
             for x in (0..w).step_by(d as usize) {
-                tested += 1;
-                let v = self.ss[(y * w + x) as usize];
-                if !(1..=3).contains(&v) {
+                s.scalar_op(ScalarClass::Branch);
+                let v = s.s_load(self.ss, s.s_add(s.s_mul(y, w), x) as usize);
+                if !(s.s_le(1, v as u32) && s.s_le(v as u32, 3)) {
                     continue;
                 }
                 let mut same = true;
@@ -546,11 +587,11 @@ impl Kernel for Evaluation<'_> {
                     (0, 1),
                     (1, 1),
                 ] {
-                    let (nx, ny) = (x + dx * d, y + dy * d);
-                    if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    let (nx, ny) = (s.s_add(x, s.s_mul(dx, d)), s.s_add(y, s.s_mul(dy, d)));
+                    if s.s_lt(nx, 0) || s.s_lt(ny, 0) || s.s_le(w, nx) || s.s_le(h, ny) {
                         continue;
                     }
-                    if self.ss[(ny * w + nx) as usize] != v {
+                    if s.s_branch(s.s_load(self.ss, s.s_add(s.s_mul(ny, w), nx) as usize) != v) {
                         same = false;
                         break;
                     }
@@ -561,7 +602,6 @@ impl Kernel for Evaluation<'_> {
                 }
             }
         }
-        s.scalar_ops(12 * tested);
         s.end_task();
         found
     }
@@ -590,23 +630,29 @@ impl Kernel for Final<'_> {
         for &(v, w) in self.used {
             let wv = s.splat_f(w);
             let mut i = 0;
-            while i < n {
+            while s.s_lt(i, n) {
                 let m = s.mask_first_n(n - i);
                 let x = s.mask_load_f(zero, m, &v[self.first + i..]);
                 let acc = s.mask_load_f(zero, m, &sums[i..]);
                 s.mask_store_f(&mut sums[i..], m, s.fmadd(x, wv, acc));
-                i += 16;
+                i = s.s_add(i, 16);
             }
         }
-        s.scalar_ops(4 * n as u64);
-        for ((out, &vm), &sum) in self.out.iter_mut().zip(self.vm).zip(&sums) {
-            if self.force || vm == 0.5 {
+        // Counted per receiver: the loop's branch, the map's load and test, the sum's load and
+        // scaling, the store.
+        s.scalar_read(self.vm);
+        for k in 0..n {
+            s.scalar_op(ScalarClass::Branch);
+            let vm = counted::streamed(s, self.vm, k);
+            self.out[k] = if self.force || s.s_branch(vm == 0.5) {
                 penumbra += 1;
-                *out = sum * self.inv_total;
+                s.s_mul(counted::streamed(s, &sums, k), self.inv_total)
             } else {
-                *out = vm;
-            }
+                vm
+            };
+            s.scalar_op(ScalarClass::Mem);
         }
+        s.scalar_write(self.out);
         s.end_task();
         penumbra
     }

@@ -33,7 +33,7 @@ pub mod adaptive;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use crate::algorithms::params::{ChoiceParam, IntParam};
 use crate::algorithms::rbsm::visibility::{Function, Settings};
@@ -44,6 +44,7 @@ use crate::algorithms::sism::light_samples;
 use crate::algorithms::{
     AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource,
 };
+use crate::counted;
 use crate::exec::{task_kind, FrameLog};
 use crate::frame::Receiver;
 use crate::sampling::concentric_disk;
@@ -284,23 +285,34 @@ impl Kernel for Accumulate<'_> {
         let zero = s.splat_f(0.0);
         let mut hidden = 0;
         let mut i = 0;
-        while i < self.samples.len() {
+        while s.s_lt(i, self.samples.len()) {
             let m = s.mask_first_n(self.samples.len() - i);
             // n · (point − q) per lane: the receiver's normal against its line to the light point.
+            // Counted per lane: the loop's branch, the sample's pixel and position (their lines read
+            // with the samples), the receiver's tag (its line here), normal, difference and dot
+            // product, and the lane's store.
+            s.scalar_read(&self.samples[i..(i + 16).min(self.samples.len())]);
             let mut facing = [0f32; 16];
             for (lane, smp) in self.samples[i..].iter().enumerate().take(16) {
+                s.scalar_op(ScalarClass::Branch);
+                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Mem);
                 let r = &self.receivers[smp.pixel as usize];
                 s.scalar_read(std::slice::from_ref(r));
-                facing[lane] = r.map_or(0.0, |r| r.normal.dot(self.point - smp.q));
+                s.scalar_op(ScalarClass::Mem);
+                s.s_branch(r.is_some());
+                facing[lane] = r.map_or(0.0, |r| {
+                    s.scalar_op(ScalarClass::Mem);
+                    counted::dot(s, r.normal, counted::sub(s, self.point, smp.q))
+                });
+                s.scalar_op(ScalarClass::Mem);
             }
-            s.scalar_read(&self.samples[i..(i + 16).min(self.samples.len())]);
-            s.scalar_ops(6 * s.mask_popcnt(m) as u64);
             let up = s.mask_and(m, s.cmp_gt_f(s.from_array_f(facing), zero));
             hidden += (s.mask_popcnt(m) - s.mask_popcnt(up)) as u64;
             let v = s.mask_load_f(zero, up, &self.values[i..]);
             let acc = s.mask_load_f(zero, m, &self.sums[i..]);
             s.mask_store_f(&mut self.sums[i..], m, s.add_f(acc, v));
-            i += 16;
+            i = s.s_add(i, 16);
         }
         s.end_task();
         hidden

@@ -19,6 +19,7 @@ use super::shadow_map::depth_map::{FaceMap, LightMaps};
 use super::shadow_map::{face_tasks, map_frame};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::algorithms::sism::grid::SampleIn;
+use crate::counted;
 use crate::exec::{task_kind, FrameLog, Phase};
 use crate::stats::{percentiles, Dist, StatsReport};
 use visibility::{Function, Settings};
@@ -383,23 +384,28 @@ impl Kernel for RbsmLookup<'_> {
             Method::Single(f) | Method::Rpcf { function: f, .. } => f,
         };
         let mut i = 0;
-        while i < self.samples.len() {
+        while s.s_lt(i, self.samples.len()) {
             let chunk = &self.samples[i..(i + 16).min(self.samples.len())];
             let m = s.mask_first_n(chunk.len());
-            // Each lane's position exactly as the scalar functions see it.
+            // Each lane's position exactly as the scalar functions see it. Counted per lane: the
+            // loop's branch, the position's load (its line read with the chunk), the shift, the
+            // projection (its four divides too) and the three stores with the mask's update.
+            s.scalar_read(chunk);
             let (mut xs, mut ys, mut zs, mut front) = ([0f32; 16], [0f32; 16], [0f32; 16], 0u16);
             for (lane, smp) in chunk.iter().enumerate() {
-                let f = map.face.to_face(smp.q + self.shift);
-                if f.z > 0.0 {
-                    let (pos, d) = map.project_face(f);
+                s.scalar_op(ScalarClass::Branch);
+                s.scalar_op(ScalarClass::Mem);
+                let f = map.face.to_face_counted(s, counted::add(s, smp.q, self.shift));
+                if s.s_lt(0.0, f.z) {
+                    let (pos, d) = map.project_face_counted(s, f);
                     (xs[lane], ys[lane], zs[lane]) = (pos.x, pos.y, d);
+                    for _ in 0..3 {
+                        s.scalar_op(ScalarClass::Mem);
+                    }
+                    s.scalar_op(ScalarClass::Alu);
                     front |= 1 << lane;
                 }
             }
-            // The projection's four divides per lane are independent across lanes (an out-of-order
-            // core overlaps them; the model charges a divide its latency): declared.
-            s.scalar_read(chunk);
-            s.scalar_ops(20 * chunk.len() as u64);
             let valid = s.mask_and(m, Mask16(front));
             let (x, y, z) = (s.from_array_f(xs), s.from_array_f(ys), s.from_array_f(zs));
             let (hard, _) = plain_and_flagged(s, map, valid, x, y, z);
@@ -438,7 +444,7 @@ impl Kernel for RbsmLookup<'_> {
             out.differs_from_hard += s.mask_popcnt(s.mask_and(m, s.cmp_ne_f(v, hard_f))) as u64;
             out.fragments += chunk.len() as u64;
             s.mask_store_f(&mut self.out[i..], m, v);
-            i += 16;
+            i = s.s_add(i, 16);
         }
         s.end_task();
         out

@@ -17,7 +17,7 @@
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::Simd;
+use sism_simd::{ScalarClass, Simd};
 
 use crate::algorithms::sism::light_samples::LightSamples;
 use crate::algorithms::sism::light_view::LightFace;
@@ -142,12 +142,22 @@ impl FaceMap {
     /// with face coordinates `f` (`f.z > 0`).
     #[inline]
     pub fn project_face(&self, f: Vec3) -> (Vec2, f32) {
-        let half = 0.5 * self.size as f32;
-        let u = f.x / f.z;
-        let v = f.y / f.z;
-        let x = (u / self.extent + 1.0) * half;
-        let y = (1.0 - v / self.extent) * half;
-        (Vec2::new(x, y), (f.z - self.z0) * self.inv_range)
+        self.project_face_counted(sism_simd::Portable, f)
+    }
+
+    /// [`FaceMap::project_face`] counted by `s` (the same bits): four divides, a conversion, and
+    /// seven adds and multiplies.
+    #[inline(always)]
+    pub fn project_face_counted<S: Simd>(&self, s: S, f: Vec3) -> (Vec2, f32) {
+        let half = s.s_mul(
+            0.5,
+            s.s_fn(sism_simd::ScalarClass::Alu, self.size, |n: u32| n as f32),
+        );
+        let u = s.s_div(f.x, f.z);
+        let v = s.s_div(f.y, f.z);
+        let x = s.s_mul(s.s_add(s.s_div(u, self.extent), 1.0), half);
+        let y = s.s_mul(s.s_sub(1.0, s.s_div(v, self.extent)), half);
+        (Vec2::new(x, y), s.s_mul(s.s_sub(f.z, self.z0), self.inv_range))
     }
 
     /// [`FaceMap::project_face`] of world point `p`.
@@ -372,12 +382,20 @@ fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: Til
             }
             let rows_here = (th - by).min(4) as usize;
             let cols_here = (tw - bx).min(4) as usize;
+            // Counted: the block's branch and extents; per texel its load from the block and its
+            // store into the map's row (each row's stored line recorded once).
+            s.s_branch(true);
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Alu);
             for rr in 0..rows_here {
+                let row = &mut rows[by as usize + rr][bx as usize..bx as usize + cols_here];
                 for cc in 0..cols_here {
-                    rows[by as usize + rr][bx as usize + cc].write(vals[4 * rr + cc]);
+                    s.scalar_op(ScalarClass::Mem);
+                    s.scalar_op(ScalarClass::Mem);
+                    row[cc].write(vals[4 * rr + cc]);
                 }
+                s.scalar_write(row);
             }
-            s.scalar_ops(2 * (rows_here * cols_here) as u64);
         }
     }
     covered

@@ -9,10 +9,11 @@
 //! shadows itself in every tap that lands on its own surface nearer the light.
 
 use glam::{Vec2, Vec3};
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use super::depth_map::FaceMap;
 use crate::algorithms::sism::grid::SampleIn;
+use crate::counted;
 use crate::exec::task_kind;
 use crate::frame::Receiver;
 
@@ -132,17 +133,31 @@ pub(crate) fn project<S: Simd>(
 ) -> Projected<S> {
     let mut q = [[0f32; 16]; 3];
     let mut nrm = [[0f32; 16]; 3];
+    // Counted per lane (the transposition into lanes is scalar work): the loop's branch, the
+    // sample's position and pixel (their lines read below with the samples), the shift, the
+    // receiver's tag and normal (its line here), and the six stores into the lane arrays.
     for (lane, smp) in samples.iter().enumerate().take(16) {
-        let p = smp.q + shift;
+        s.scalar_op(ScalarClass::Branch);
+        s.scalar_op(ScalarClass::Mem);
+        s.scalar_op(ScalarClass::Mem);
+        let p = counted::add(s, smp.q, shift);
         q[0][lane] = p.x;
         q[1][lane] = p.y;
         q[2][lane] = p.z;
         let r = &receivers[smp.pixel as usize];
         s.scalar_read(std::slice::from_ref(r));
-        let n = r.map_or(Vec3::ZERO, |r| r.normal);
+        s.scalar_op(ScalarClass::Mem);
+        s.s_branch(r.is_some());
+        let n = r.map_or(Vec3::ZERO, |r| {
+            s.scalar_op(ScalarClass::Mem);
+            r.normal
+        });
         nrm[0][lane] = n.x;
         nrm[1][lane] = n.y;
         nrm[2][lane] = n.z;
+        for _ in 0..6 {
+            s.scalar_op(ScalarClass::Mem);
+        }
     }
     s.scalar_read(&samples[..samples.len().min(16)]);
     let (x, y, z) = (s.from_array_f(q[0]), s.from_array_f(q[1]), s.from_array_f(q[2]));
@@ -246,9 +261,12 @@ impl Kernel for LookupTask<'_> {
         let mut c = LookupCounts::default();
         let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
         let mut i = 0;
-        while i < self.samples.len() {
+        // Counted scalar work beside `project`'s: the loop's compare and increment, the method's
+        // branch and each tap loop's branch.
+        while s.s_lt(i, self.samples.len()) {
             let m = s.mask_first_n(self.samples.len() - i);
             let p = project::<S>(s, map, self.shift, &self.samples[i..], self.receivers, m);
+            s.scalar_op(ScalarClass::Branch);
             let (ix, iy) = (s.floor_i(p.tx), s.floor_i(p.ty));
             let hard = s.select_f(p.valid, lit(s, map, p.valid, ix, iy, p.d), zero);
             let lanes = s.mask_popcnt(m) as u64;
@@ -271,6 +289,7 @@ impl Kernel for LookupTask<'_> {
                     c.taps += 5 * lanes;
                     let mut differ = zero;
                     for (dx, dy) in [(-1, 0), (1, 0), (0, 1), (0, -1)] {
+                        s.scalar_op(ScalarClass::Branch);
                         let t = lit(
                             s,
                             map,
@@ -288,6 +307,7 @@ impl Kernel for LookupTask<'_> {
                     let mut sum = zero;
                     for dy in -h..=h {
                         for dx in -h..=h {
+                            s.scalar_op(ScalarClass::Branch);
                             // The tap's ray is the receiver's, moved by whole texels: the same
                             // place within its texel as the hard test's.
                             let d = if dx == 0 && dy == 0 {
@@ -325,6 +345,7 @@ impl Kernel for LookupTask<'_> {
                     let rs = s.min_f(s.max_f(s.mul_f(tpu, s.sub_f(inv_near, inv_zr)), zero), max_r);
                     let (mut sum_z, mut count) = (zero, zero);
                     for t in blocker {
+                        s.scalar_op(ScalarClass::Branch);
                         let (x, y) = (
                             s.fmadd(rs, s.splat_f(t.x), p.tx),
                             s.fmadd(rs, s.splat_f(t.y), p.ty),
@@ -354,6 +375,7 @@ impl Kernel for LookupTask<'_> {
                         );
                         let mut sum = zero;
                         for t in filter {
+                            s.scalar_op(ScalarClass::Branch);
                             let (x, y) = (
                                 s.fmadd(rf, s.splat_f(t.x), p.tx),
                                 s.fmadd(rf, s.splat_f(t.y), p.ty),
@@ -370,8 +392,7 @@ impl Kernel for LookupTask<'_> {
             let v = s.select_f(p.valid, v, zero);
             c.differs_from_hard += s.mask_popcnt(s.mask_and(m, s.cmp_ne_f(v, hard))) as u64;
             s.mask_store_f(&mut self.out[i..], m, v);
-            s.scalar_ops(4);
-            i += 16;
+            i = s.s_add(i, 16);
         }
         s.end_task();
         c

@@ -72,14 +72,13 @@ pub fn bin_items<B: BinItems>(
         }),
     );
     let mut offsets = vec![0u32; n_bins + 1];
-    for (pairs, _) in &chunks {
-        for &(bin, _) in pairs {
-            offsets[bin as usize + 1] += 1;
-        }
-    }
-    for b in 0..n_bins {
-        offsets[b + 1] += offsets[b];
-    }
+    phase.run(
+        "lists",
+        ListOffsets {
+            chunks: &chunks,
+            offsets: &mut offsets,
+        },
+    );
     let mut cursor = offsets.clone();
     let mut items = vec![0u32; offsets[n_bins] as usize];
     let mut counts = B::Counts::default();
@@ -112,12 +111,42 @@ impl<B: BinItems> Kernel for BinChunk<'_, B> {
         s.begin_task(task_kind::BIN_ITEMS);
         let mut pairs = Vec::new();
         let mut counts = B::Counts::default();
+        // The emitters push their pairs with `s_push`, which records the pairs' lines.
         for item in self.items {
             self.binner.emit(s, item, &mut pairs, &mut counts);
         }
-        s.scalar_write(&pairs);
         s.end_task();
         (pairs, counts)
+    }
+}
+
+/// Step `lists`, first task: the lists' offsets, a histogram of every chunk's pairs by bin and its
+/// prefix sum (`offsets[b]` = first position of bin `b`'s list, `offsets[n_bins]` = all pairs).
+struct ListOffsets<'a, C> {
+    chunks: &'a [ChunkPairs<C>],
+    offsets: &'a mut [u32],
+}
+
+impl<C> Kernel for ListOffsets<'_, C> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) {
+        s.begin_task(task_kind::BIN_LISTS);
+        // Counted per pair: its bin's load, the count's load, increment and store; per bin the
+        // prefix sum's load, add and store.
+        for (pairs, _) in self.chunks {
+            s.scalar_read(pairs);
+            for k in 0..pairs.len() {
+                let (bin, _) = crate::counted::streamed(s, pairs, k);
+                let at = bin as usize + 1;
+                s.s_store(self.offsets, at, s.s_add(s.s_load(self.offsets, at), 1));
+            }
+        }
+        for b in 0..self.offsets.len() - 1 {
+            let sum = s.s_add(s.s_load(self.offsets, b + 1), s.s_load(self.offsets, b));
+            s.s_store(self.offsets, b + 1, sum);
+        }
+        s.end_task();
     }
 }
 
@@ -135,14 +164,13 @@ impl Kernel for ScatterPairs<'_> {
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::BIN_LISTS);
         s.scalar_read(self.pairs);
-        for &(bin, item) in self.pairs {
-            let c = &mut self.cursor[bin as usize];
-            self.items[*c as usize] = item;
-            s.scalar_write(&self.items[*c as usize..*c as usize + 1]);
-            *c += 1;
+        // Counted per pair: its load, the bin's cursor (load, increment, store) and the item's store.
+        for k in 0..self.pairs.len() {
+            let (bin, item) = crate::counted::streamed(s, self.pairs, k);
+            let c = s.s_load(self.cursor, bin as usize);
+            s.s_store(self.items, c as usize, item);
+            s.s_store(self.cursor, bin as usize, s.s_add(c, 1));
         }
-        // Per pair: histogram increment, then cursor load, item store and cursor store (~6).
-        s.scalar_ops(6 * self.pairs.len() as u64);
         s.end_task();
     }
 }

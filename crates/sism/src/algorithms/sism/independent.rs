@@ -14,11 +14,12 @@
 //! This fuses the umbra and penumbra passes into one per bin.
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::penumbra::{add_edge_terms, BinPart, PenumbraStats, WedgeScan};
 use super::umbra::{covered, triangle_in_bin, UmbraStats};
 use super::{Occluders, StageInputs};
+use crate::counted;
 use crate::exec::{task_kind, Phase};
 
 /// Visible fraction of every sample (sorted order) under independent composition, one task per bin
@@ -87,20 +88,26 @@ impl Kernel for OcclusionBin<'_> {
         let positions = part.positions(grid);
 
         // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1).
-        let mut items: Vec<(u32, u8, u32)> = occ
-            .triangles
-            .of(bin)
-            .iter()
-            .map(|&t| (inp.topo.object[t as usize], 0u8, t))
-            .chain(
-                occ.quads
-                    .of(bin)
-                    .iter()
-                    .map(|&e| (occ.silhouettes.objects[e as usize], 1u8, e)),
-            )
-            .collect();
-        items.sort_unstable();
-        s.scalar_ops(items.len() as u64 * 8);
+        // Counted: each item's index and object loads and its push, and every comparison of the
+        // sort (a compare and a branch each).
+        let (triangles, quads) = (occ.triangles.of(bin), occ.quads.of(bin));
+        let mut items: Vec<(u32, u8, u32)> = Vec::with_capacity(triangles.len() + quads.len());
+        for k in 0..triangles.len() {
+            let t = s.s_load(triangles, k);
+            s.s_push(&mut items, (s.s_load(&inp.topo.object, t as usize), 0u8, t));
+        }
+        for k in 0..quads.len() {
+            let e = s.s_load(quads, k);
+            s.s_push(
+                &mut items,
+                (s.s_load(&occ.silhouettes.objects, e as usize), 1u8, e),
+            );
+        }
+        items.sort_unstable_by(|a, b| {
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Branch);
+            a.cmp(b)
+        });
 
         // Coverage of the current component at the samples it touched; `touched` lists them once each
         // (stamp = index of the group that last listed the sample).
@@ -124,8 +131,10 @@ impl Kernel for OcclusionBin<'_> {
             for &(_, kind, index) in &items[at..end] {
                 let n_hit = if kind == 0 {
                     // Umbra: +1 coverage where the sample lies behind the triangle.
-                    let q = inp.topo.triangles[index as usize].map(|v| v - inp.light.center);
-                    let Some(tri) = triangle_in_bin(grid, bin, &q) else {
+                    let q = s
+                        .s_read(&inp.topo.triangles[index as usize])
+                        .map(|v| counted::sub(s, v, inp.light.center));
+                    let Some(tri) = triangle_in_bin(s, grid, bin, &q) else {
                         continue;
                     };
                     let mut n = 0usize;
@@ -164,13 +173,13 @@ impl Kernel for OcclusionBin<'_> {
                     );
                     n
                 };
-                for &i in &wedge.selected[..n_hit] {
-                    if stamp[i as usize] != group {
-                        stamp[i as usize] = group;
-                        touched.push(i);
+                for j in 0..n_hit {
+                    let i = s.s_load(&wedge.selected, j);
+                    if s.s_branch(s.s_load(&stamp, i as usize) != group) {
+                        s.s_store(&mut stamp, i as usize, group);
+                        s.s_push(&mut touched, i);
                     }
                 }
-                s.scalar_ops(2 * n_hit as u64);
             }
             // Fold the component into the product: visible *= 1 - clamp01(coverage); reset coverage.
             let mut k = 0;

@@ -15,11 +15,12 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::grid::SampleIn;
 use super::light_view::{self, LightView};
 use super::SismLight;
+use crate::counted;
 use crate::exec::{task_kind, Phase};
 use crate::frame::{Receiver, Receivers, VisibilityImage, V_FACING_AWAY, V_MISS};
 use crate::scene::Light;
@@ -153,28 +154,32 @@ impl Kernel for Classify<'_> {
             cos_theta: Vec::with_capacity(self.values.len()),
             pixel: Vec::with_capacity(self.values.len()),
         };
-        let mut receivers = 0u64;
-        for (k, (v, r)) in self.values.iter_mut().zip(self.pixels).enumerate() {
-            let Some(r) = r else { continue };
-            receivers += 1;
-            let q = r.position - self.c;
-            let facing = r.normal.dot(-q);
-            if facing > 0.0 && q.length_squared() > 0.0 {
-                *v = 1.0;
-                out.q.push(q);
-                out.cos_theta.push((facing / q.length()).min(1.0));
-                out.pixel.push(self.first_pixel + k as u32);
+        // Counted per pixel: the receiver's tag and its branch; per receiver its two vectors, the
+        // difference, the facing test, length and cosine, and the pushes.
+        for k in 0..self.values.len() {
+            let r = &self.pixels[k];
+            s.scalar_op(ScalarClass::Mem);
+            let Some(r) = s.s_branch(r.is_some()).then(|| r.as_ref().expect("tested")) else {
+                continue;
+            };
+            let q = counted::sub(s, s.s_read(&r.position), self.c);
+            let facing = counted::dot(s, s.s_read(&r.normal), counted::neg(s, q));
+            if s.s_lt(0.0, facing) && s.s_lt(0.0, counted::dot(s, q, q)) {
+                self.values[k] = 1.0;
+                s.scalar_op(ScalarClass::Mem);
+                s.s_push(&mut out.q, q);
+                s.s_push(
+                    &mut out.cos_theta,
+                    s.s_min(s.s_div(facing, counted::length(s, q)), 1.0),
+                );
+                s.s_push(&mut out.pixel, s.s_add(self.first_pixel, k as u32));
             } else {
-                *v = V_FACING_AWAY;
+                self.values[k] = V_FACING_AWAY;
+                s.scalar_op(ScalarClass::Mem);
             }
         }
-        // Per pixel the miss test and the store (~3); per receiver the difference, dot, length, square
-        // root, division and the pushes (~20).
-        s.scalar_ops(3 * self.values.len() as u64 + 20 * receivers);
+        // The values' lines (their stores are counted above); the pushes recorded their own.
         s.scalar_write(self.values);
-        s.scalar_write(&out.q);
-        s.scalar_write(&out.cos_theta);
-        s.scalar_write(&out.pixel);
         s.end_task();
         out
     }
@@ -223,11 +228,15 @@ impl Kernel for FaceCount<'_> {
     fn run<S: Simd>(self, s: S) -> [u32; 6] {
         s.begin_task(task_kind::LIGHT_SAMPLES_FACE_SORT);
         let mut counts = [0u32; 6];
-        for &f in self.face_of {
-            counts[f as usize] += 1;
-        }
         s.scalar_read(self.face_of);
-        s.scalar_ops(2 * self.face_of.len() as u64);
+        // Counted per sample: the face's load and the count's load, increment and store (a local
+        // array: no line).
+        for i in 0..self.face_of.len() {
+            let f = counted::streamed(s, self.face_of, i) as usize;
+            let c = counted::streamed(s, &counts, f);
+            counts[f] = s.s_add(c, 1);
+            s.scalar_op(ScalarClass::Mem);
+        }
         s.end_task();
         counts
     }
@@ -246,15 +255,16 @@ impl Kernel for FaceScatter<'_> {
     #[inline(always)]
     fn run<S: Simd>(mut self, s: S) {
         s.begin_task(task_kind::LIGHT_SAMPLES_FACE_SORT);
-        for (k, &f) in self.face_of.iter().enumerate() {
-            let at = self.next[f as usize] as usize;
-            self.order[at] = self.first + k as u32;
-            s.scalar_write(&self.order[at..at + 1]);
-            self.next[f as usize] += 1;
-        }
         s.scalar_read(self.face_of);
-        // Per sample: the face, its position, the store and the increment (~4).
-        s.scalar_ops(4 * self.face_of.len() as u64);
+        // Counted per sample: the face, its next position (a local array), the index's store and
+        // the position's increment.
+        for k in 0..self.face_of.len() {
+            let f = counted::streamed(s, self.face_of, k) as usize;
+            let at = counted::streamed(s, &self.next, f);
+            s.s_store(self.order, at as usize, s.s_add(self.first, k as u32));
+            self.next[f] = s.s_add(at, 1);
+            s.scalar_op(ScalarClass::Mem);
+        }
         s.end_task();
     }
 }
@@ -292,34 +302,37 @@ impl Kernel for Project<'_> {
         if let Some(order) = self.order {
             s.scalar_read(order);
         }
-        let n = self.out.len();
+        // Counted per sample: its index, its three fields, the face's basis, the projection (three
+        // dot products, two divides), the record's six stores, the length and the face's bounds (a
+        // divide, two loads, two minima, two stores).
         for (i, out) in self.out.iter_mut().enumerate() {
             let k = match self.order {
-                Some(order) => order[i] as usize,
-                None => self.first + i,
+                Some(order) => counted::streamed(s, order, i) as usize,
+                None => s.s_add(self.first, i),
             };
-            let (q, face) = (self.points[k], self.face_of[k]);
-            // By sample index: one line each (points, cosines, pixels), streamed when in order.
-            s.scalar_read(&self.points[k..k + 1]);
-            s.scalar_read(&self.cosines[k..k + 1]);
-            s.scalar_read(&self.pixels[k..k + 1]);
-            let (uv, depth) = self.view.faces[face as usize].project(q);
+            let (q, face) = (s.s_read(&self.points[k]), s.s_read(&self.face_of[k]));
+            let (pixel, cos_theta) = (s.s_read(&self.pixels[k]), s.s_read(&self.cosines[k]));
+            let f = s.s_read(&self.view.faces[face as usize]).to_face_counted(s, q);
+            let (uv, depth) = (glam::Vec2::new(s.s_div(f.x, f.z), s.s_div(f.y, f.z)), f.z);
             out.write(SampleIn {
                 q,
                 face,
                 uv,
                 depth,
-                pixel: self.pixels[k],
-                cos_theta: self.cosines[k],
+                pixel,
+                cos_theta,
             });
-            let len = q.length();
+            for _ in 0..6 {
+                s.scalar_op(ScalarClass::Mem);
+            }
+            let len = counted::length(s, q);
             let f = face as usize;
-            b.cos_min[f] = b.cos_min[f].min(depth / len);
-            b.dist_min[f] = b.dist_min[f].min(len);
+            let cos = s.s_div(depth, len);
+            b.cos_min[f] = s.s_min(counted::streamed(s, &b.cos_min, f), cos);
+            b.dist_min[f] = s.s_min(counted::streamed(s, &b.dist_min, f), len);
+            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Mem);
         }
-        // Per sample: 3 dot products and 2 divisions (~14), the length (~6), the bounds (~4), the
-        // record (~6).
-        s.scalar_ops(30 * n as u64);
         s.scalar_touch(self.out.as_ptr() as usize, std::mem::size_of_val(self.out), true);
         s.end_task();
         b

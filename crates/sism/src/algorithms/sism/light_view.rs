@@ -8,8 +8,9 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
+use crate::counted;
 use crate::exec::{task_kind, Phase};
 use crate::scene::shapes::orthonormal_basis;
 
@@ -33,7 +34,17 @@ impl LightFace {
     /// Face coordinates `(x, y, z)` of `q` (relative to the light centre).
     #[inline]
     pub fn to_face(&self, q: Vec3) -> Vec3 {
-        Vec3::new(q.dot(self.right), q.dot(self.up), q.dot(self.axis))
+        self.to_face_counted(sism_simd::Portable, q)
+    }
+
+    /// [`LightFace::to_face`] with its three dot products counted by `s` (bit-identical).
+    #[inline(always)]
+    pub fn to_face_counted<S: Simd>(&self, s: S, q: Vec3) -> Vec3 {
+        Vec3::new(
+            crate::counted::dot(s, q, self.right),
+            crate::counted::dot(s, q, self.up),
+            crate::counted::dot(s, q, self.axis),
+        )
     }
 
     /// Image-plane position and depth of `q`; meaningful only for `z > 0`.
@@ -68,20 +79,31 @@ pub fn cube_faces() -> Vec<LightFace> {
 /// Index into [`cube_faces`] of the face whose frustum holds direction `q`.
 #[inline]
 pub fn cube_face_of(q: Vec3) -> usize {
-    let a = q.abs();
-    if a.x >= a.y && a.x >= a.z {
-        if q.x >= 0.0 {
+    cube_face_of_counted(sism_simd::Portable, q)
+}
+
+/// [`cube_face_of`] with its operations counted by `s`: three absolute values and up to three
+/// compares with their branches.
+#[inline(always)]
+pub fn cube_face_of_counted<S: Simd>(s: S, q: Vec3) -> usize {
+    let a = Vec3::new(
+        s.s_fn(ScalarClass::Alu, q.x, f32::abs),
+        s.s_fn(ScalarClass::Alu, q.y, f32::abs),
+        s.s_fn(ScalarClass::Alu, q.z, f32::abs),
+    );
+    if s.s_le(a.y, a.x) && s.s_le(a.z, a.x) {
+        if s.s_le(0.0, q.x) {
             0
         } else {
             1
         }
-    } else if a.y >= a.z {
-        if q.y >= 0.0 {
+    } else if s.s_le(a.z, a.y) {
+        if s.s_le(0.0, q.y) {
             2
         } else {
             3
         }
-    } else if q.z >= 0.0 {
+    } else if s.s_le(0.0, q.z) {
         4
     } else {
         5
@@ -152,12 +174,17 @@ impl Kernel for MeanDirection<'_> {
     fn run<S: Simd>(self, s: S) -> DVec3 {
         s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
         s.scalar_read(self.points);
-        let sum = self
-            .points
-            .iter()
-            .fold(DVec3::ZERO, |acc, q| acc + q.normalize_or_zero().as_dvec3());
-        // Per point: the length, a division and three widening adds (~12).
-        s.scalar_ops(12 * self.points.len() as u64);
+        // Counted per point: its load, the normalisation, three widenings and three f64 adds.
+        let mut sum = DVec3::ZERO;
+        for i in 0..self.points.len() {
+            let u = counted::normalize_or_zero(s, counted::streamed(s, self.points, i));
+            let w = DVec3::new(
+                s.s_fn(ScalarClass::Alu, u.x, f64::from),
+                s.s_fn(ScalarClass::Alu, u.y, f64::from),
+                s.s_fn(ScalarClass::Alu, u.z, f64::from),
+            );
+            sum = DVec3::new(s.s_add(sum.x, w.x), s.s_add(sum.y, w.y), s.s_add(sum.z, w.z));
+        }
         s.end_task();
         sum
     }
@@ -176,11 +203,12 @@ impl Kernel for WithinCone<'_> {
     fn run<S: Simd>(self, s: S) -> bool {
         s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
         s.scalar_read(self.points);
-        let all = self
-            .points
-            .iter()
-            .all(|q| q.normalize_or_zero().dot(self.axis) >= self.cos_limit);
-        s.scalar_ops(12 * self.points.len() as u64);
+        // Counted per point, up to the first outside the cone: its load, the normalisation, the dot
+        // product and the compare.
+        let all = (0..self.points.len()).all(|i| {
+            let u = counted::normalize_or_zero(s, counted::streamed(s, self.points, i));
+            s.s_le(self.cos_limit, counted::dot(s, u, self.axis))
+        });
         s.end_task();
         all
     }
@@ -198,10 +226,11 @@ impl Kernel for CubeFaces<'_> {
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::LIGHT_SAMPLES_FIT);
         s.scalar_read(self.points);
-        for (id, &q) in self.ids.iter_mut().zip(self.points) {
-            *id = cube_face_of(q) as u8;
+        // Counted per point: its load, the face test and the id's store (its line below).
+        for i in 0..self.points.len() {
+            self.ids[i] = cube_face_of_counted(s, counted::streamed(s, self.points, i)) as u8;
+            s.scalar_op(ScalarClass::Mem);
         }
-        s.scalar_ops(8 * self.points.len() as u64);
         s.scalar_write(self.ids);
         s.end_task();
     }

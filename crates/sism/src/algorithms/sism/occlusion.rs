@@ -317,8 +317,7 @@ pub fn edge_frame<S: Simd>(
         s.mask_andn(touches, s.mask_and(m, reach)),
         s.mask_and(s.cmp_lt_f(dist, one), s.cmp_lt_f(lo, hi)),
     );
-    s.scalar_ops(2);
-    if !s.mask_any(valid) || e.n_tri == 0 {
+    if !s.s_branch(s.mask_any(valid)) || s.s_branch(e.n_tri == 0) {
         return None;
     }
     Some(EdgeFrame {

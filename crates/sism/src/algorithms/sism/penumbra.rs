@@ -109,16 +109,8 @@ struct QuadGeometry {
 /// Its operations are counted by `s`.
 #[inline(always)]
 fn quad_geometry<S: Simd>(s: S, g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeometry> {
-    let to_face = |q: Vec3| {
-        let f = &g.face;
-        Vec3::new(
-            counted::dot(s, q, f.right),
-            counted::dot(s, q, f.up),
-            counted::dot(s, q, f.axis),
-        )
-    };
-    let a = to_face(Vec3::from(s.s_read(&e.a)));
-    let b = to_face(Vec3::from(s.s_read(&e.b)));
+    let a = g.face.to_face_counted(s, Vec3::from(s.s_read(&e.a)));
+    let b = g.face.to_face_counted(s, Vec3::from(s.s_read(&e.b)));
     // Clipped to the face's near plane, as the umbra clips its triangles.
     let near = g.near_plane(s);
     let clip = |p: Vec3, q: Vec3| -> Option<Vec3> {

@@ -53,7 +53,7 @@
 //! 2.6× on the modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::grid::Grid;
 use super::occlusion::{edge_frame, region_area, signed_sum, EdgeRecord};
@@ -62,6 +62,7 @@ use super::{Occluders, SismLight, StageInputs};
 use crate::algorithms::reference::DiskRays;
 use crate::bvh::beam::{Beam, BEAM_RAYS};
 use crate::bvh::SceneBvh;
+use crate::counted;
 use crate::exec::{task_kind, Phase};
 use crate::frame::Receivers;
 use crate::vmath::{cross3, dot3};
@@ -344,17 +345,21 @@ impl LightPointRays<'_> {
     #[inline(always)]
     fn visible<S: Simd>(&self, s: S, sample: usize, scratch: &mut RayScratch) -> (Option<f32>, u64) {
         let c = self.light.center;
-        let pixel = self.grid.samples.pixel[sample];
-        let Some(rcv) = self.receivers.pixels.get(pixel as usize).copied().flatten() else {
+        // Counted: the sample's pixel and receiver, the disk's basis, the light points and each
+        // point's ray into the beam.
+        let pixel = s.s_load(&self.grid.samples.pixel, sample);
+        let rcv = self.receivers.pixels.get(pixel as usize).copied().flatten();
+        s.scalar_op(ScalarClass::Mem);
+        let Some(rcv) = s.s_branch(rcv.is_some()).then(|| rcv.expect("tested")) else {
             return (None, 0);
         };
         // (Samples are receivers facing the light centre, by the same test.)
-        let Some(disk) = DiskRays::new(self.bvh, c, self.light.radius, &rcv) else {
+        let Some(disk) = DiskRays::new_counted(s, self.bvh, c, self.light.radius, &rcv) else {
             return (None, 0);
         };
-        s.scalar_ops(40);
         light_points_into(
-            rcv.position - c,
+            s,
+            counted::sub(s, rcv.position, c),
             pixel,
             self.points,
             self.rotations,
@@ -362,12 +367,13 @@ impl LightPointRays<'_> {
         );
         scratch.beam.reset(disk.origin);
         // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
-        for &o in &scratch.offsets {
-            if let Some((dir, len)) = disk.ray(c + o * self.light.radius) {
-                scratch.beam.push(dir, len);
+        for k in 0..LIGHT_POINTS {
+            let o = counted::streamed(s, &scratch.offsets, k);
+            let target = counted::add(s, c, counted::scale(s, o, self.light.radius));
+            if let Some((dir, len)) = disk.ray_counted(s, target) {
+                scratch.beam.push_counted(s, dir, len);
             }
         }
-        s.scalar_ops(12 * LIGHT_POINTS as u64);
         let counts = self
             .bvh
             .beams()
@@ -569,8 +575,9 @@ impl Kernel for SampledBin<'_> {
         // against 0.0024 when counted lit).
         let inv_points = 1.0 / LIGHT_POINTS as f32;
         for i in 0..n_samples {
-            let minus_depth = s.splat_i(-self.depth[i]);
-            let one_more = s.splat_i(1 - self.depth[i]);
+            let depth = s.s_load(self.depth, i);
+            let minus_depth = s.splat_i(-depth);
+            let one_more = s.splat_i(s.s_sub(1, depth));
             let (mut lit, mut overlap) = (0, false);
             for g in 0..GROUPS {
                 let c = s.load_i(&counts[i * LIGHT_POINTS + 16 * g..]);
@@ -578,12 +585,17 @@ impl Kernel for SampledBin<'_> {
                 // Counts outside {0, 1}: overlapping occluders (or a negative count).
                 overlap |= s.mask_any(s.mask_or(s.cmp_lt_i(c, minus_depth), s.cmp_gt_i(c, one_more)));
             }
-            s.scalar_ops(6);
-            self.out[i] = if sums.is_empty() || overlap {
-                lit as f32 * inv_points
+            // Counted: the choice and its arithmetic, and the store.
+            let v = if s.s_branch(sums.is_empty() || overlap) {
+                s.s_mul(s.s_fn(ScalarClass::Alu, lit, |l: u32| l as f32), inv_points)
             } else {
-                1.0 - (self.depth[i] as f32 + sums[i]).clamp(0.0, 1.0)
+                let d = s.s_fn(ScalarClass::Alu, depth, |d: i32| d as f32);
+                let sum = s.s_add(d, s.s_load(&sums, i));
+                // `clamp`: two operations (NaN passes through, unlike a max and a min).
+                s.scalar_op(ScalarClass::Alu);
+                s.s_sub(1.0, s.s_fn(ScalarClass::Alu, sum, |x: f32| x.clamp(0.0, 1.0)))
             };
+            s.s_store(self.out, i, v);
         }
         if reuse {
             COUNTS.with(|c| *c.borrow_mut() = counts);
@@ -742,8 +754,12 @@ fn add_edge_points<S: Simd>(
                 s.splat_f(coef[6][lane]),
             ];
             let wv = s.splat_i(w[lane]);
-            let row = at[lane] as usize * LIGHT_POINTS;
-            s.scalar_ops(6);
+            // Counted: the lane's extraction (count trailing zeros, clear the lowest bit), the loop's
+            // branch and the row's offset.
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Branch);
+            let row = s.s_mul(at[lane] as usize, LIGHT_POINTS);
             for (g, reach) in reach.iter().enumerate() {
                 if reach & (1 << lane) == 0 {
                     continue;
@@ -787,12 +803,20 @@ fn both_below<S: Simd>(s: S, a: S::F32, b: S::F32, ta: S::F32, tb: S::F32) -> si
 pub fn light_point_offsets(q: glam::Vec3, pixel: u32) -> Vec<glam::Vec3> {
     let mut out = [glam::Vec3::ZERO; LIGHT_POINTS];
     let (cos, sin) = rotation_table();
-    light_points_into(q, pixel, &point_set(), (&cos, &sin), &mut out);
+    light_points_into(
+        sism_simd::Portable,
+        q,
+        pixel,
+        &point_set(),
+        (&cos, &sin),
+        &mut out,
+    );
     out.to_vec()
 }
 
 /// [`light_point_offsets`] with the tables given and no allocation.
-fn light_points_into(
+fn light_points_into<S: Simd>(
+    s: S,
     q: glam::Vec3,
     pixel: u32,
     p: &PointSet,
@@ -800,17 +824,30 @@ fn light_points_into(
     out: &mut [glam::Vec3; LIGHT_POINTS],
 ) {
     use glam::Vec3;
-    let n = q * (-1.0 / q.length());
-    let sign = 1f32.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let u = Vec3::new(1.0 + sign * a * n.x * n.x, sign * b, -sign * n.x);
-    let v = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    // Counted by `s` (the same bits as plain arithmetic): the basis, the pixel's rotation (a hash and
+    // two table loads) and per point two loads, two scalings, an add and the store.
+    let n = counted::scale(s, q, s.s_div(-1.0, counted::length(s, q)));
+    let sign = s.s_fn(ScalarClass::Alu, n.z, |z| 1f32.copysign(z));
+    let a = s.s_div(-1.0, s.s_add(sign, n.z));
+    let b = s.s_mul(s.s_mul(n.x, n.y), a);
+    let u = Vec3::new(
+        s.s_add(1.0, s.s_mul(s.s_mul(s.s_mul(sign, a), n.x), n.x)),
+        s.s_mul(sign, b),
+        s.s_mul(-sign, n.x),
+    );
+    let v = Vec3::new(b, s.s_add(sign, s.s_mul(s.s_mul(n.y, n.y), a)), -n.y);
+    s.scalar_op(ScalarClass::Alu);
+    s.scalar_op(ScalarClass::Alu);
     let j = (pixel.wrapping_mul(0x9E37_79B1) >> 24) as usize;
-    let e1 = u * cos[j] + v * sin[j];
-    let e2 = v * cos[j] - u * sin[j];
+    let (cj, sj) = (s.s_load(cos, j), s.s_load(sin, j));
+    let e1 = counted::add(s, counted::scale(s, u, cj), counted::scale(s, v, sj));
+    let e2 = counted::sub(s, counted::scale(s, v, cj), counted::scale(s, u, sj));
     for (k, o) in out.iter_mut().enumerate() {
-        *o = e1 * p.x[k / 16][k % 16] + e2 * p.y[k / 16][k % 16];
+        let (px, py) = (p.x[k / 16][k % 16], p.y[k / 16][k % 16]);
+        s.scalar_op(ScalarClass::Mem);
+        s.scalar_op(ScalarClass::Mem);
+        *o = counted::add(s, counted::scale(s, e1, px), counted::scale(s, e2, py));
+        s.scalar_op(ScalarClass::Mem);
     }
 }
 

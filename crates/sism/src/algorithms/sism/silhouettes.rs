@@ -9,9 +9,10 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::occlusion::EdgeRecord;
+use crate::counted;
 use crate::exec::{task_kind, Exec, Phase};
 use crate::scene::topology::{EdgeTopology, SceneTopology};
 
@@ -70,65 +71,68 @@ impl Kernel for SilhouetteChunk<'_> {
     fn run<S: Simd>(self, s: S) -> Silhouettes {
         s.begin_task(task_kind::SILHOUETTES);
         let mut out = Silhouettes::default();
+        // The neighbours that count, per edge (one buffer for the task, not one per edge).
+        let mut lit = Vec::new();
         s.scalar_read(self.edges);
-        for e in self.edges {
-            let tris = &self.topo.edge_triangles[e.first as usize..(e.first + e.count) as usize];
-            s.scalar_read(tris);
-            let before = out.edges.len();
-            edge_records(
-                self.topo,
-                e,
-                self.c,
-                self.per_object,
-                &mut out.edges,
-                &mut out.objects,
-            );
-            // Per edge: fetch and the loop (~8), per adjacent triangle the counted test (a plane test
-            // of ~12 for closed components), the side test of a fold (~16), ~20 per record written.
-            s.scalar_ops(8 + 14 * e.count as u64 + 16 + 20 * (out.edges.len() - before) as u64);
+        for k in 0..self.edges.len() {
+            // The edge's record: endpoints, range (its lines read with the chunk above).
+            let e = &self.edges[k];
+            for _ in 0..4 {
+                s.scalar_op(ScalarClass::Mem);
+            }
+            edge_records(s, self.topo, e, self.c, self.per_object, &mut lit, &mut out);
         }
-        s.scalar_write(&out.edges);
         s.end_task();
         out
     }
 }
 
-fn edge_records(
+/// The records of edge `e` (none, one per counting neighbour, or one for a fold) pushed to `out`;
+/// every operation counted by `s`. `lit` is scratch space.
+#[inline(always)]
+fn edge_records<S: Simd>(
+    s: S,
     topo: &SceneTopology,
     e: &EdgeTopology,
     c: Vec3,
     per_object: bool,
-    out: &mut Vec<EdgeRecord>,
-    objects: &mut Vec<u32>,
+    lit: &mut Vec<(Vec3, u32)>,
+    out: &mut Silhouettes,
 ) {
     let tris = &topo.edge_triangles[e.first as usize..(e.first + e.count) as usize];
-    let counted: Vec<(Vec3, u32)> = tris
-        .iter()
-        .filter(|(t, _)| topo.counts(*t as usize, c))
-        .map(|&(t, v3)| (v3, topo.object[t as usize]))
-        .collect();
-    let rel = |p: Vec3| (p - c).to_array();
+    s.scalar_read(tris);
+    lit.clear();
+    for k in 0..tris.len() {
+        let (t, v3) = counted::streamed(s, tris, k);
+        if topo.counts_counted(s, t as usize, c) {
+            s.s_push(lit, (v3, s.s_load(&topo.object, t as usize)));
+        }
+    }
+    let rel = |p: Vec3| counted::sub(s, p, c).to_array();
     let mut push = |v3: &[Vec3], object: u32| {
-        out.push(EdgeRecord {
+        let record = EdgeRecord {
             a: rel(e.a),
             b: rel(e.b),
             v3: [rel(v3[0]), rel(*v3.get(1).unwrap_or(&v3[0]))],
             n_tri: v3.len() as u32,
-        });
-        objects.push(object);
+        };
+        s.s_push(&mut out.edges, record);
+        s.s_push(&mut out.objects, object);
     };
-    match (e.count, counted.len()) {
+    s.scalar_op(ScalarClass::Branch); // the match on the counts
+    match (e.count, lit.len()) {
         (_, 0) => {}
-        (2, 2) if !per_object || counted[0].1 == counted[1].1 => {
+        (2, 2) if !per_object || s.s_branch(lit[0].1 == lit[1].1) => {
             // Same side of the edge as seen from the light: a fold, the terms add (silhouette).
             // Opposite sides: the terms cancel, nothing to do.
-            let m = (e.a - c).cross(e.b - c);
-            if m.dot(counted[0].0 - c) * m.dot(counted[1].0 - c) >= 0.0 {
-                push(&[counted[0].0, counted[1].0], counted[0].1);
+            let m = counted::cross(s, counted::sub(s, e.a, c), counted::sub(s, e.b, c));
+            let side = |p: Vec3| counted::dot(s, m, counted::sub(s, p, c));
+            if s.s_le(0.0, s.s_mul(side(lit[0].0), side(lit[1].0))) {
+                push(&[lit[0].0, lit[1].0], lit[0].1);
             }
         }
         (_, _) => {
-            for &(v3, object) in &counted {
+            for &(v3, object) in lit.iter() {
                 push(&[v3], object);
             }
         }

@@ -10,12 +10,13 @@
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use super::binning::{bin_items, BinItems, BinLists};
 use super::grid::Grid;
 use super::light_view::LightFace;
 use super::StageInputs;
+use crate::counted;
 use crate::exec::{task_kind, Phase};
 use crate::scene::topology::SceneTopology;
 use crate::stats::{percentiles, Dist};
@@ -76,34 +77,42 @@ impl std::ops::AddAssign for TriangleBinCounts {
 }
 
 /// Image-plane bounds and nearest depth of the polygon `pts` (face coordinates) clipped to `z >= near`;
-/// `None` when nothing is in front.
-pub fn clipped_bounds(pts: &[Vec3], near: f32) -> Option<(Vec2, Vec2, f32)> {
+/// `None` when nothing is in front. Every operation is counted by `s` (natively the plain arithmetic,
+/// glam's operation order).
+#[inline(always)]
+pub fn clipped_bounds<S: Simd>(s: S, pts: &[Vec3], near: f32) -> Option<(Vec2, Vec2, f32)> {
     let mut lo = Vec2::splat(f32::INFINITY);
     let mut hi = Vec2::splat(f32::NEG_INFINITY);
     let mut z_min = f32::INFINITY;
     let mut any = false;
     let mut add = |p: Vec3| {
-        let uv = Vec2::new(p.x / p.z, p.y / p.z);
-        lo = lo.min(uv);
-        hi = hi.max(uv);
-        z_min = z_min.min(p.z);
+        let uv = Vec2::new(s.s_div(p.x, p.z), s.s_div(p.y, p.z));
+        lo = counted::v2::min(s, lo, uv);
+        hi = counted::v2::max(s, hi, uv);
+        z_min = s.s_min(z_min, p.z);
         any = true;
     };
     let n = pts.len();
     for i in 0..n {
         let (p, q) = (pts[i], pts[(i + 1) % n]);
-        if p.z >= near {
+        let (p_in, q_in) = (s.s_le(near, p.z), s.s_le(near, q.z));
+        if p_in {
             add(p);
         }
         // Where the edge crosses the near plane, its crossing point bounds the clipped polygon.
-        if (p.z >= near) != (q.z >= near) {
-            let t = (near - p.z) / (q.z - p.z);
-            let mut x = p + (q - p) * t;
+        if s.s_branch(p_in != q_in) {
+            let t = s.s_div(s.s_sub(near, p.z), s.s_sub(q.z, p.z));
+            let mut x = counted::add(s, p, counted::scale(s, counted::sub(s, q, p), t));
             x.z = near;
             add(x);
         }
     }
-    (any && lo.is_finite() && hi.is_finite()).then_some((lo, hi, z_min))
+    // Four finiteness tests and their branch.
+    for _ in 0..4 {
+        s.scalar_op(ScalarClass::Alu);
+    }
+    s.s_branch(any && lo.is_finite() && hi.is_finite())
+        .then_some((lo, hi, z_min))
 }
 
 /// Triangle binning: every counted triangle into the bins whose samples it may cover (bins entirely
@@ -120,42 +129,42 @@ impl BinItems for TriangleBinner<'_> {
     fn emit<S: Simd>(&self, s: S, t: u32, out: &mut Vec<(u32, u32)>, counts: &mut TriangleBinCounts) {
         let grid = self.grid;
         let b = grid.params.bin_columns;
-        let pairs_before = out.len();
-        // The counted test: flags, and the plane test of a closed component's triangle.
-        s.scalar_ops(12);
-        s.scalar_read(&self.topo.triangles[t as usize..t as usize + 1]);
-        if !self.topo.counts(t as usize, self.light_center) {
+        if !self.topo.counts_counted(s, t as usize, self.light_center) {
             counts.back_facing += 1;
             return;
         }
         counts.counted += 1;
-        let q = self.topo.triangles[t as usize].map(|v| v - self.light_center);
-        for g in grid.faces.iter().filter(|g| g.samples > 0) {
-            // Three corners into the face, the near clip and the bounds (~45), the column range (~12).
-            s.scalar_ops(57);
-            let Some((lo, hi, z_near)) = face_bounds(&g.face, &q, g.near_plane(s)) else {
+        let q = s
+            .s_read(&self.topo.triangles[t as usize])
+            .map(|v| counted::sub(s, v, self.light_center));
+        for g in &grid.faces {
+            if !s.s_lt(0, s.s_read(&g.samples)) {
+                continue;
+            }
+            let Some((lo, hi, z_near)) = face_bounds(s, &g.face, &q, g.near_plane(s)) else {
                 counts.face_culled += 1;
                 continue;
             };
             let (c0, c1) = g.column_range(s, lo, hi);
-            if z_near >= g.z_max || c0.x >= c1.x || c0.y >= c1.y {
+            if s.s_le(g.z_max, z_near) || s.s_le(c1.x, c0.x) || s.s_le(c1.y, c0.y) {
                 counts.face_culled += 1;
                 continue;
             }
             for bin in g.bins_of_columns(b, c0, c1) {
                 let bn = &grid.bins[bin];
-                s.scalar_ops(6);
-                if bn.samples.is_empty() {
+                s.scalar_op(ScalarClass::Branch); // the bins loop
+                                                  // The bin's sample range and depth bound: one line.
+                let (start, end) = (s.s_read(&bn.samples.start), s.s_read(&bn.samples.end));
+                if s.s_le(end, start) {
                     continue;
                 }
-                if bn.z_max <= z_near {
+                if s.s_le(s.s_read(&bn.z_max), z_near) {
                     counts.depth_culled += 1;
                     continue;
                 }
-                out.push((bin as u32, t));
+                s.s_push(out, (bin as u32, t));
             }
         }
-        s.scalar_ops(2 * (out.len() - pairs_before) as u64);
     }
 }
 
@@ -180,10 +189,11 @@ pub fn bin_triangles(phase: &mut Phase, inputs: &StageInputs<'_>, stats: &mut Um
     lists
 }
 
-/// Image-plane bounds and nearest depth of triangle `q` (relative to the light) in `face`.
-#[inline]
-fn face_bounds(face: &LightFace, q: &[Vec3; 3], near: f32) -> Option<(Vec2, Vec2, f32)> {
-    clipped_bounds(&q.map(|p| face.to_face(p)), near)
+/// Image-plane bounds and nearest depth of triangle `q` (relative to the light) in `face`, counted
+/// by `s`.
+#[inline(always)]
+fn face_bounds<S: Simd>(s: S, face: &LightFace, q: &[Vec3; 3], near: f32) -> Option<(Vec2, Vec2, f32)> {
+    clipped_bounds(s, &q.map(|p| face.to_face_counted(s, p)), near)
 }
 
 /// Depth complexity of every sample (sorted order), one task per bin with triangles (step `depth`).
@@ -248,23 +258,35 @@ pub struct TriangleInBin {
 }
 
 /// Prepares triangle `q` (corners relative to the light centre) for bin `bin`; `None` when it
-/// covers none of the bin's columns or is edge-on from the light.
-#[inline]
-pub fn triangle_in_bin(grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<TriangleInBin> {
+/// covers none of the bin's columns or is edge-on from the light. Counted by `s`: the bin's and
+/// face's records, the projection and clip, the column range, the plane and the three edge planes.
+#[inline(always)]
+pub fn triangle_in_bin<S: Simd>(s: S, grid: &Grid, bin: usize, q: &[Vec3; 3]) -> Option<TriangleInBin> {
     let b = &grid.bins[bin];
-    let g = &grid.faces[b.face as usize];
-    let (lo, hi, z_near) = face_bounds(&g.face, q, g.near_plane(sism_simd::Portable))?;
-    let (c0, c1) = g.column_range(sism_simd::Portable, lo, hi);
-    let bin_c1 = (b.column0 + UVec2::splat(grid.params.bin_columns)).min(g.columns);
-    let (c0, c1) = (c0.max(b.column0), c1.min(bin_c1));
-    let n = (q[1] - q[0]).cross(q[2] - q[0]);
-    let k = n.dot(q[0]);
+    let g = &grid.faces[s.s_read(&b.face) as usize];
+    let column0 = s.s_read(&b.column0);
+    let (lo, hi, z_near) = face_bounds(s, &g.face, q, g.near_plane(s))?;
+    let (c0, c1) = g.column_range(s, lo, hi);
+    let bc = grid.params.bin_columns;
+    let bin_c1 = UVec2::new(
+        s.s_min(s.s_add(column0.x, bc), g.columns.x),
+        s.s_min(s.s_add(column0.y, bc), g.columns.y),
+    );
+    let c0 = UVec2::new(s.s_max(c0.x, column0.x), s.s_max(c0.y, column0.y));
+    let c1 = UVec2::new(s.s_min(c1.x, bin_c1.x), s.s_min(c1.y, bin_c1.y));
+    let n = counted::cross(s, counted::sub(s, q[1], q[0]), counted::sub(s, q[2], q[0]));
+    let k = counted::dot(s, n, q[0]);
     // k = 0: the plane passes through the light centre; edge-on, it covers nothing.
-    (c0.x < c1.x && c0.y < c1.y && k != 0.0).then(|| TriangleInBin {
+    let keep = s.s_lt(c0.x, c1.x) && s.s_lt(c0.y, c1.y) && s.s_branch(k != 0.0);
+    keep.then(|| TriangleInBin {
         c0,
         c1,
-        first_slice: g.slice_of(sism_simd::Portable, z_near, grid.params.slices),
-        edge_planes: [q[0].cross(q[1]), q[1].cross(q[2]), q[2].cross(q[0])],
+        first_slice: g.slice_of(s, z_near, grid.params.slices),
+        edge_planes: [
+            counted::cross(s, q[0], q[1]),
+            counted::cross(s, q[1], q[2]),
+            counted::cross(s, q[2], q[0]),
+        ],
         n,
         k,
     })
@@ -327,10 +349,12 @@ impl Kernel for UmbraBin<'_> {
         let zero = s.splat_f(0.0);
         let one = s.splat_i(1);
         let mut tested = 0u64;
-        for &t in self.triangles {
-            let q = self.topo.triangles[t as usize].map(|v| v - self.light_center);
-            s.scalar_ops(60);
-            let Some(tri) = triangle_in_bin(grid, self.bin, &q) else {
+        for k in 0..self.triangles.len() {
+            let t = s.s_load(self.triangles, k);
+            let q = s
+                .s_read(&self.topo.triangles[t as usize])
+                .map(|v| counted::sub(s, v, self.light_center));
+            let Some(tri) = triangle_in_bin(s, grid, self.bin, &q) else {
                 continue;
             };
             for row in tri.c0.y..tri.c1.y {

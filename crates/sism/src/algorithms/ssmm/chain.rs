@@ -7,7 +7,7 @@
 //! are absent, not zero-filled: they do not lower a maximum of non-negative values anyway).
 
 use rayon::prelude::*;
-use sism_simd::{Kernel, Simd};
+use sism_simd::{Kernel, ScalarClass, Simd};
 
 use crate::algorithms::shadow_map::depth_map::FaceMap;
 use crate::exec::{task_kind, Phase};
@@ -101,25 +101,29 @@ impl Kernel for BaseTask<'_> {
         let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
         let (z0, range) = (s.splat_f(map.z0), s.splat_f(map.range()));
         let lane = s.cvt_i_f(s.index_i());
+        // Counted scalar work: per row its index, its `v` and the row's offset; per vector the
+        // loop's compare and increment and the column's centre.
         for (r, row) in self.out.chunks_mut(side).enumerate() {
-            let y = self.first_row + r;
-            let v = map.extent - (y as f32 + 0.5) * scale;
-            let v2 = s.splat_f(1.0 + v * v);
-            let src = &map.depth[y * side..(y + 1) * side];
+            let y = s.s_add(self.first_row, r);
+            let yf = s.s_fn(ScalarClass::Alu, y, |y: usize| y as f32);
+            let v = s.s_sub(map.extent, s.s_mul(s.s_add(yf, 0.5), scale));
+            let v2 = s.splat_f(s.s_add(1.0, s.s_mul(v, v)));
+            let start = s.s_mul(y, side);
+            let src = &map.depth[start..start + side];
             let mut x = 0;
-            while x < side {
+            while s.s_lt(x, side) {
                 let m = s.mask_first_n(side - x);
                 let d = s.mask_load_f(s.splat_f(f32::INFINITY), m, &src[x..]);
-                let cx = s.add_f(lane, s.splat_f(x as f32 + 0.5));
+                let xf = s.s_fn(ScalarClass::Alu, x, |x: usize| x as f32);
+                let cx = s.add_f(lane, s.splat_f(s.s_add(xf, 0.5)));
                 let u = s.fmsub(cx, s.splat_f(scale), s.splat_f(map.extent));
                 let dist = s.mul_f(s.fmadd(d, range, z0), s.sqrt_f(s.fmadd(u, u, v2)));
                 // Nothing seen (+∞), or a surface at or behind the light point: no blocker.
                 let seen = s.mask_and(s.cmp_lt_f(d, s.splat_f(f32::INFINITY)), s.cmp_gt_f(dist, zero));
                 let inv = s.div_f(one, s.select_f(seen, dist, one));
                 s.mask_store_f(&mut row[x..], m, s.select_f(seen, inv, zero));
-                x += 16;
+                x = s.s_add(x, 16);
             }
-            s.scalar_ops(4);
         }
         s.end_task();
     }
@@ -142,28 +146,30 @@ impl Kernel for DownTask<'_> {
         let zero = s.splat_f(0.0);
         let lane = s.index_i();
         for (r, row) in self.out.chunks_mut(self.side).enumerate() {
-            let y = (self.first_row + r) as i32;
+            // Counted scalar work: the row's index; per vector the loop's compare and increment, and
+            // per child row its index, test and offset.
+            let y = s.s_add(self.first_row, r) as i32;
             let mut x = 0;
-            while x < self.side {
+            while s.s_lt(x, self.side) {
                 let m = s.mask_first_n(self.side - x);
                 let cx = s.shl_i(s.add_i(lane, s.splat_i(x as i32)), 1);
                 let mut best = zero;
                 for dy in 0..2 {
-                    let fy = 2 * y + dy;
-                    if fy >= fine_side {
+                    let fy = s.s_add(s.s_mul(2, y), dy);
+                    if s.s_le(fine_side, fy) {
                         continue;
                     }
+                    let row_offset = s.s_mul(fy, fine_side);
                     for dx in 0..2 {
                         let fx = s.add_i(cx, s.splat_i(dx));
                         let inside = s.mask_and(m, s.cmp_lt_i(fx, s.splat_i(fine_side)));
-                        let idx = s.add_i(fx, s.splat_i(fy * fine_side));
+                        let idx = s.add_i(fx, s.splat_i(row_offset));
                         best = s.max_f(best, s.mask_gather_f(zero, inside, &self.fine.inv, idx));
                     }
                 }
                 s.mask_store_f(&mut row[x..], m, best);
-                x += 16;
+                x = s.s_add(x, 16);
             }
-            s.scalar_ops(2);
         }
         s.end_task();
     }

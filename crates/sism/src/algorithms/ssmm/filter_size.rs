@@ -46,13 +46,30 @@ pub fn filter_ratio(scale: f32, inv_blocker: f32, inv_receiver: f32) -> f32 {
 /// `a = r_L / (2 tan(fov/2) ρ)` of [`filter_ratio`] for a layer of filter size `rho` (fraction of the
 /// map's side, `> 0`): world units.
 pub fn filter_scale(light_radius: f32, tan_half_fov: f32, rho: f32) -> f32 {
-    light_radius / (2.0 * tan_half_fov * rho)
+    filter_scale_counted(sism_simd::Portable, light_radius, tan_half_fov, rho)
+}
+
+/// [`filter_scale`] counted by `s` (two multiplies and a divide; the same bits).
+#[inline(always)]
+pub fn filter_scale_counted<S: sism_simd::Simd>(s: S, light_radius: f32, tan_half_fov: f32, rho: f32) -> f32 {
+    s.s_div(light_radius, s.s_mul(s.s_mul(2.0, tan_half_fov), rho))
 }
 
 /// Layer `level`'s filter size `ρ_i = n 2^i / (2 size)` (fraction of the map's side) for a kernel of
 /// `n × n` texels on a base map of `size` texels a side.
 pub fn layer_filter_size(n: u32, level: usize, size: u32) -> f32 {
-    n as f32 * (1u64 << level) as f32 / (2.0 * size as f32)
+    layer_filter_size_counted(sism_simd::Portable, n, level, size)
+}
+
+/// [`layer_filter_size`] counted by `s` (three conversions, a shift, two multiplies and a divide;
+/// the same bits).
+#[inline(always)]
+pub fn layer_filter_size_counted<S: sism_simd::Simd>(s: S, n: u32, level: usize, size: u32) -> f32 {
+    use sism_simd::ScalarClass::Alu;
+    let nf = s.s_fn(Alu, n, |n: u32| n as f32);
+    let pow = s.s_fn(Alu, s.s_fn(Alu, level, |l: usize| 1u64 << l), |p: u64| p as f32);
+    let sf = s.s_fn(Alu, size, |z: u32| z as f32);
+    s.s_div(s.s_mul(nf, pow), s.s_mul(2.0, sf))
 }
 
 /// Layers of the chain: levels `0, 1, …` while a level still has at least `n` texels a side

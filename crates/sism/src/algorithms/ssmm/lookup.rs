@@ -26,7 +26,7 @@
 //! black border there would darken every receiver near the map's rim through the last layer.
 
 use glam::{Vec2, Vec3};
-use sism_simd::{Kernel, Mask16, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use super::chain::MipChain;
 use super::filter_size::{self, layer_weight_simd};
@@ -217,16 +217,19 @@ impl Kernel for SsmmTask<'_> {
         // World width of a base texel per unit of view depth.
         let texel_per_z = 2.0 * map.extent / map.size as f32;
         // a_i = r_L / (2 tan ρ_i), the Eq. 3.3 ratio's scale per layer.
-        let scale: Vec<f32> = (0..layers)
-            .map(|i| {
-                let rho = filter_size::layer_filter_size(n, i, map.size);
-                filter_size::filter_scale(setup.light_radius, map.extent, rho)
-            })
-            .collect();
-        s.scalar_ops(4 * layers as u64);
+        // Counted, as every scalar operation below: the loop's compare and increment per vector, the
+        // layer loop's tests, the taps' loop branches.
+        let mut scale: Vec<f32> = Vec::with_capacity(layers);
+        for i in 0..layers {
+            let rho = filter_size::layer_filter_size_counted(s, n, i, map.size);
+            s.s_push(
+                &mut scale,
+                filter_size::filter_scale_counted(s, setup.light_radius, map.extent, rho),
+            );
+        }
         let mut c = SsmmCounts::default();
         let mut i = 0;
-        while i < self.samples.len() {
+        while s.s_lt(i, self.samples.len()) {
             let m = s.mask_first_n(self.samples.len() - i);
             let p = project::<S>(s, map, self.shift, &self.samples[i..], self.receivers, m);
             c.fragments += s.mask_popcnt(m) as u64;
@@ -288,11 +291,11 @@ impl Kernel for SsmmTask<'_> {
             let mut visited = 0u64;
             for level in (0..layers).rev() {
                 let active = s.mask_andn(done, m);
-                if !s.mask_any(active) {
+                if !s.s_branch(s.mask_any(active)) {
                     break;
                 }
                 let inv_r = inv_receiver(s, biased, slope, level);
-                let a = s.splat_f(scale[level]);
+                let a = s.splat_f(s.s_load(&scale, level));
                 let (lanes, lane_weight) = match setup.variant {
                     Variant::Full => {
                         // Finer layers see no nearer surface than `bound`: hat weight 0 below x = 1/2
@@ -331,6 +334,7 @@ impl Kernel for SsmmTask<'_> {
                 for (ky, &fy) in wy.iter().enumerate().take(n as usize + 1) {
                     let iy = s.add_i(iy0, s.splat_i(ky as i32));
                     for (kx, &fx) in wx.iter().enumerate().take(n as usize + 1) {
+                        s.scalar_op(ScalarClass::Branch);
                         let ix = s.add_i(ix0, s.splat_i(kx as i32));
                         let inv = fetch(s, chain, level, lanes, ix, iy);
                         region_max = s.max_f(region_max, inv);
@@ -357,8 +361,7 @@ impl Kernel for SsmmTask<'_> {
             let v = s.select_f(valid, v, zero);
             c.blocked += s.mask_popcnt(s.mask_and(valid, s.cmp_lt_f(v, one))) as u64;
             s.mask_store_f(&mut self.out[i..], m, v);
-            s.scalar_ops(4);
-            i += 16;
+            i = s.s_add(i, 16);
         }
         s.end_task();
         c
