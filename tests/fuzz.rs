@@ -342,6 +342,7 @@ fn corpus() -> Corpus {
         cores: vec![1, 2, 4],
         threads: Vec::new(),
         l2_kb: Vec::new(),
+        ..Default::default()
     };
     let configs = machine::sweep::configurations(&base, &axes).unwrap();
     let label = sism::study::Label {
@@ -365,6 +366,7 @@ fn corpus() -> Corpus {
             machine: "larrabee-24",
             base: &base,
             configs: &configs,
+            set_keys: &[],
             records: &canonical,
         },
         &job,

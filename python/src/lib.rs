@@ -381,6 +381,7 @@ fn study<'py>(
         cores: cores.unwrap_or_default(),
         threads: threads.unwrap_or_default(),
         l2_kb: l2_kb.unwrap_or_default(),
+        ..Default::default()
     };
     let configs = sweep::configurations(&base, &axes).map_err(value_err)?;
     let points = py.detach(|| {
@@ -396,7 +397,7 @@ fn study<'py>(
         let records = sism::machine::canonical(&frame.records);
         drop(frame);
         let bar = sism::progress::bar(configs.len() as u64, "simulating", progress);
-        let points = sism::study::run_local(&records, &configs, || bar.inc(1));
+        let points = sism::study::run_local(&records, &configs, &[], || bar.inc(1));
         bar.finish_and_clear();
         points
     });

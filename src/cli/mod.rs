@@ -28,6 +28,7 @@ mod compare;
 mod progress;
 mod render;
 mod replay;
+mod sensitivity;
 mod study;
 mod table2;
 mod trace;
@@ -54,6 +55,8 @@ struct Cli {
     command: Command,
 }
 
+// Parsed once per run: the size of its largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene's visibility and write visibility.pfm/png, shaded.png and stats.
@@ -66,6 +69,11 @@ enum Command {
     /// `--backend slurm` writes the sweep to a study directory and submits it as a Slurm job array;
     /// `study run|collect|submit DIR` run a task, merge the results, (re)submit.
     Study(study::Args),
+    /// Which machine parameter moves the frame: one counted frame replayed on the base machine and
+    /// with each parameter that applies halved and doubled (`--factor`); ranks them for the frame and
+    /// each phase and says what limits the frame; writes sensitivity.csv, sensitivity.md and a
+    /// tornado chart, sensitivity.png.
+    Sensitivity(sensitivity::Args),
     /// Compare a visibility image with a reference: MAE, RMSE, p99, share of |error| > 0.1, penumbra MAE.
     Compare(compare::Args),
     /// Time against error: a high-spp truth, then every registered algorithm (the reference's spp
@@ -115,6 +123,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Replay(a) => replay::run(a),
         Command::Study(a) => study::run(a),
+        Command::Sensitivity(a) => sensitivity::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Algorithms(a) => algorithms::run(a),

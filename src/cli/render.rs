@@ -33,6 +33,11 @@ pub struct Args {
     /// `time.frame_first` and `time.frame_median` added. Every frame gives the same image.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     frames: u32,
+    /// With --machine: also write the frame's roofline, roofline.md (per phase and step the
+    /// vector lane operations per cycle against bytes per cycle from L2 and DRAM, under the
+    /// machine's ceilings, and the roof that bounds each) and roofline.png.
+    #[arg(long, requires = "machine")]
+    roofline: bool,
     /// No progress bar and no summary.
     #[arg(long)]
     quiet: bool,
@@ -54,6 +59,21 @@ depend on the host's state)"
         render::write_outputs(&a.out, &scene, &r.result)?;
         machine::write_config(&a.out, &config)?;
         machine::save_records(&a.out.join("records.bin"), &r.records)?;
+        if a.roofline {
+            let title = format!(
+                "{} {}x{}, {} on {}",
+                a.scene
+                    .scene
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                scene.camera.width,
+                scene.camera.height,
+                algo.name,
+                config.name
+            );
+            machine::roofline::write(&a.out, &title, &r.report)?;
+        }
         if !a.quiet {
             note_inline!("{}", r.result.stats.to_text());
             note_inline!("{}", r.report.to_table());

@@ -21,6 +21,7 @@ mod shared_scenes;
 mod sism;
 mod ssmm;
 mod study_slurm;
+mod study_sweep;
 mod surfaces;
 mod util;
 mod workloads;

@@ -46,15 +46,24 @@ struct SweepArgs {
     /// Override the scene's image height, pixels.
     #[arg(long)]
     height: Option<u32>,
-    /// Core counts, comma-separated.
-    #[arg(long, default_value = "1,2,4,8,16,24,32,48,64")]
-    cores: String,
+    /// Core counts, comma-separated (default 1,2,4,8,16,24,32,48,64; with --one-at-a-time none).
+    #[arg(long)]
+    cores: Option<String>,
     /// Hardware threads per core, comma-separated (default: the base machine's).
     #[arg(long)]
     threads: Option<String>,
     /// L2 subset sizes per core in KB, comma-separated (default: the base machine's).
     #[arg(long)]
     l2_kb: Option<String>,
+    /// Any other machine-file parameter and its values, `KEY=V1,V2,...` (repeatable): e.g.
+    /// `--set dram_bandwidth_gbs=64,128,256 --set ring_bytes_per_clock=32,64`. Keys and ranges as in
+    /// the machine file (a bad key is refused with the valid ones).
+    #[arg(long = "set", value_name = "KEY=V1,V2")]
+    set: Vec<String>,
+    /// Vary one axis at a time around the base machine (the base, then each value of each axis
+    /// alone) instead of every combination. `--cores` then defaults to none.
+    #[arg(long)]
+    one_at_a_time: bool,
     /// The base machine: a preset or a machine TOML file.
     #[arg(long, default_value = "larrabee-24")]
     machine: String,
@@ -91,6 +100,36 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
 }
 
+/// The scene's frame counted once (its records, canonical) and the plots' label.
+pub(super) fn counted_frame(
+    scene: &sism::Scene,
+    algo: &'static sism::Algorithm,
+    params: &sism::Params,
+    quiet: bool,
+) -> (machine::CanonicalRecords, Label) {
+    let frame = render::render(
+        scene,
+        algo,
+        params,
+        &RenderOptions {
+            exec: sism::exec::Exec::Counting,
+            progress: !quiet,
+        },
+    );
+    let records = machine::canonical(&frame.records);
+    drop(frame);
+    let label = Label {
+        name: scene
+            .source
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        width: scene.camera.width,
+        height: scene.camera.height,
+    };
+    (records, label)
+}
+
 fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     if a.backend == Backend::Local {
         a.slurm.reject_for_local()?;
@@ -110,8 +149,37 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let algo = algorithm(&a.algo)?;
     let params = a.params.resolve(algo)?;
     let base = super::resolve_machine(&a.machine).context("--machine")?;
+    let default_cores = if a.one_at_a_time {
+        ""
+    } else {
+        "1,2,4,8,16,24,32,48,64"
+    };
+    let set = a
+        .set
+        .iter()
+        .map(|s| sism::machine::params::parse_set(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if let Some(dup) = set
+        .iter()
+        .enumerate()
+        .find(|(i, (p, _))| set[..*i].iter().any(|(q, _)| q.name == p.name))
+    {
+        anyhow::bail!("--set {}: given twice", dup.1 .0.name);
+    }
+    if let Some((p, _)) = set
+        .iter()
+        .find(|(p, _)| ["cores", "threads_per_core", "l2_kb"].contains(&p.name))
+    {
+        anyhow::bail!("--set {}: use --cores, --threads or --l2-kb for it", p.name);
+    }
+    let cores_text = a.cores.as_deref().unwrap_or(default_cores);
     let axes = SweepAxes {
-        cores: parse_list("--cores", &a.cores)?,
+        cores: if cores_text.is_empty() {
+            Vec::new()
+        } else {
+            parse_list("--cores", cores_text)?
+        },
         threads: a
             .threads
             .as_deref()
@@ -124,30 +192,14 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             .map(|s| parse_list("--l2-kb", s))
             .transpose()?
             .unwrap_or_default(),
+        set,
+        one_at_a_time: a.one_at_a_time,
     };
+    let set_keys = axes.set_keys();
     let configs = sweep::configurations(&base, &axes).map_err(|e| anyhow::anyhow!("{e}"))?;
     a.slurm.options().check()?;
     let out = create_dir(&a.out)?;
-    let frame = render::render(
-        &scene,
-        algo,
-        &params,
-        &RenderOptions {
-            exec: sism::exec::Exec::Counting,
-            progress: !a.quiet,
-        },
-    );
-    let records = machine::canonical(&frame.records);
-    drop(frame);
-    let label = Label {
-        name: scene
-            .source
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        width: scene.camera.width,
-        height: scene.camera.height,
-    };
+    let (records, label) = counted_frame(&scene, algo, &params, a.quiet);
     if a.backend == Backend::Slurm {
         let study = sism::study::slurm::Study {
             scene: &scene_args.scene,
@@ -157,6 +209,7 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             machine: &a.machine,
             base: &base,
             configs: &configs,
+            set_keys: &set_keys,
             records: &records,
         };
         return slurm::prepare_and_submit(&out, &study, &a.slurm, a.quiet);
@@ -164,7 +217,7 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     machine::save_records(&out.join("records.bin"), &records)?;
     machine::write_config(&out, &base)?;
     let bar = sism::progress::bar(configs.len() as u64, "simulating", !a.quiet);
-    let points = studies::run_local(&records, &configs, || bar.inc(1));
+    let points = studies::run_local(&records, &configs, &set_keys, || bar.inc(1));
     bar.finish_and_clear();
     studies::write_outputs(&out, &label, &base, &points)?;
     if !a.quiet {

@@ -12,7 +12,9 @@
 pub mod cache;
 pub mod config;
 pub mod host;
+pub mod params;
 pub mod records;
+pub mod roofline;
 pub mod sweep;
 pub mod timing;
 

@@ -9,6 +9,7 @@
 //! is the same bytes either way.
 
 pub mod scheduler;
+pub mod sensitivity;
 pub mod slurm;
 
 use std::path::Path;
@@ -24,12 +25,34 @@ use crate::output::plots::study as plots;
 pub fn run_local(
     records: &CanonicalRecords,
     configs: &[MachineConfig],
+    set_keys: &[String],
     on_point: impl Fn() + Sync,
 ) -> Vec<Point> {
     sweep::run(records, configs, on_point)
         .iter()
         .enumerate()
-        .map(|(i, p)| Point::new(i, p))
+        .map(|(i, p)| Point::new(i, p, set_keys))
+        .collect()
+}
+
+/// One swept machine parameter's value at a point (`study --set`), as the machine file writes it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Setting {
+    /// The machine-file key.
+    pub key: String,
+    /// Its value.
+    pub value: String,
+}
+
+/// The values of `keys` in `m` (keys that are not parameters are skipped: callers pass checked keys).
+pub fn settings(m: &MachineConfig, keys: &[String]) -> Vec<Setting> {
+    keys.iter()
+        .filter_map(|k| crate::machine::params::find(k).ok())
+        .map(|p| Setting {
+            key: p.name.to_string(),
+            value: crate::machine::params::get(m, &p),
+        })
         .collect()
 }
 
@@ -61,6 +84,9 @@ pub struct Point {
     pub threads: u32,
     /// L2 subset size per core, KB.
     pub l2_kb: u32,
+    /// The other swept parameters' values (`study --set`), in the order given.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub set: Vec<Setting>,
     /// Clock, GHz.
     pub clock_ghz: f64,
     /// One row per step, in frame order.
@@ -122,8 +148,8 @@ impl Stack {
 }
 
 impl Point {
-    /// The point at `index` of a sweep.
-    pub fn new(index: usize, p: &SweepPoint) -> Point {
+    /// The point at `index` of a sweep whose other swept parameters are `set_keys`.
+    pub fn new(index: usize, p: &SweepPoint, set_keys: &[String]) -> Point {
         let r = &p.report;
         let line = r.config.line_bytes;
         let row = |ph: &PhaseReport| Row {
@@ -148,6 +174,7 @@ impl Point {
             cores: p.cores,
             threads: p.threads,
             l2_kb: p.l2_kb,
+            set: settings(&r.config, set_keys),
             clock_ghz: r.config.clock_ghz,
             steps: r.phases.iter().map(row).collect(),
             groups: r.groups.iter().map(row).collect(),
@@ -156,11 +183,12 @@ impl Point {
     }
 }
 
-/// Frame speedup of `p` over the smallest core count with the same threads and L2 size.
+/// Frame speedup of `p` over the smallest core count with the same threads, L2 size and other
+/// swept values.
 pub fn speedup(points: &[Point], p: &Point) -> f64 {
     let base = points
         .iter()
-        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb)
+        .filter(|q| q.threads == p.threads && q.l2_kb == p.l2_kb && q.set == p.set)
         .min_by_key(|q| q.cores)
         .unwrap_or(p);
     base.frame.cycles as f64 / p.frame.cycles.max(1) as f64
@@ -182,34 +210,44 @@ pub fn write_outputs(out: &Path, label: &Label, base: &MachineConfig, points: &[
 
 /// The study's table: frame time and speedup per point.
 pub fn table(points: &[Point]) -> String {
-    let mut s = String::from("cores threads l2_kb   frame_ms  speedup\n");
+    let keys: Vec<&str> = points
+        .first()
+        .map_or(Vec::new(), |p| p.set.iter().map(|s| s.key.as_str()).collect());
+    let mut s = String::from("cores threads l2_kb");
+    for k in &keys {
+        s += &format!(" {k:>w$}", w = k.len().max(8));
+    }
+    s += "   frame_ms  speedup\n";
     for p in points {
-        s += &format!(
-            "{:>5} {:>7} {:>5} {:>10.3} {:>8.2}\n",
-            p.cores,
-            p.threads,
-            p.l2_kb,
-            p.frame.ms,
-            speedup(points, p)
-        );
+        s += &format!("{:>5} {:>7} {:>5}", p.cores, p.threads, p.l2_kb);
+        for (k, v) in keys.iter().zip(&p.set) {
+            s += &format!(" {:>w$}", v.value, w = k.len().max(8));
+        }
+        s += &format!(" {:>10.3} {:>8.2}\n", p.frame.ms, speedup(points, p));
     }
     s.trim_end().to_string()
 }
 
 /// `study.csv`'s text: one row per configuration and step (plus `frame`).
+/// The other swept parameters (`--set`) are columns after `l2_kb`, in the order given.
 pub fn csv(points: &[Point]) -> String {
-    let mut s = String::from(
-        "cores,threads,l2_kb,phase,tasks,cycles,ms,stack_issue,stack_memory,stack_atomics_sync,\
+    let keys: String = points.first().map_or(String::new(), |p| {
+        p.set.iter().map(|s| format!(",{}", s.key)).collect()
+    });
+    let mut s = format!(
+        "cores,threads,l2_kb{keys},phase,tasks,cycles,ms,stack_issue,stack_memory,stack_atomics_sync,\
          stack_imbalance_idle,lane_utilisation,l1_miss_rate,l2_miss_rate,bytes_dram,frame_speedup\n",
     );
     for p in points {
         let sp = speedup(points, p);
+        let values: String = p.set.iter().map(|s| format!(",{}", s.value)).collect();
         for ph in p.steps.iter().chain(std::iter::once(&p.frame)) {
             s += &format!(
-                "{},{},{},{},{},{},{:.6},{},{},{},{},{:.6},{:.6},{:.6},{},{:.6}\n",
+                "{},{},{}{},{},{},{},{:.6},{},{},{},{},{:.6},{:.6},{:.6},{},{:.6}\n",
                 p.cores,
                 p.threads,
                 p.l2_kb,
+                values,
                 ph.phase,
                 ph.tasks,
                 ph.cycles,

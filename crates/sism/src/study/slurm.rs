@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use super::scheduler::{array_spec, shell_quote, Scheduler};
-use super::{write_outputs, Label, Point};
+use super::{write_outputs, Label, Point, Setting};
 use crate::error::{bail, ensure};
 use crate::machine::records::{checksum, to_bytes};
 use crate::machine::sweep;
@@ -140,6 +140,8 @@ pub struct Study<'a> {
     pub base: &'a MachineConfig,
     /// Every point's machine, in sweep order.
     pub configs: &'a [MachineConfig],
+    /// The other swept parameters (`--set`), in order.
+    pub set_keys: &'a [String],
     /// The frame's records.
     pub records: &'a CanonicalRecords,
 }
@@ -198,10 +200,18 @@ pub struct ManifestPoint {
     pub threads: u32,
     /// L2 subset size per core, KB.
     pub l2_kb: u32,
+    /// The other swept parameters' values (`--set`), in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub set: Vec<Setting>,
     /// `machines/point-NNNN.toml`.
     pub machine: String,
     /// Its checksum.
     pub machine_checksum: String,
+}
+
+/// The keys of a manifest point's other swept parameters.
+fn keys_of(p: &ManifestPoint) -> Vec<String> {
+    p.set.iter().map(|s| s.key.clone()).collect()
 }
 
 /// `results/task-K.json`.
@@ -428,6 +438,7 @@ pub fn prepare(
             cores: c.cores,
             threads: c.threads_per_core,
             l2_kb: c.l2_kb,
+            set: super::settings(c, s.set_keys),
             machine: rel.clone(),
             machine_checksum: hex(text.as_bytes()),
         });
@@ -708,7 +719,11 @@ pub fn run_task(dir: &Path, task: usize) -> crate::Result<TaskRun> {
         let c = MachineConfig::from_toml(&text, &p.name)
             .map_err(|e| crate::Error::invalid(format!("machine file {}: {e}", path.display())))?;
         ensure!(
-            c.name == p.name && c.cores == p.cores && c.threads_per_core == p.threads && c.l2_kb == p.l2_kb,
+            c.name == p.name
+                && c.cores == p.cores
+                && c.threads_per_core == p.threads
+                && c.l2_kb == p.l2_kb
+                && super::settings(&c, &keys_of(p)) == p.set,
             "machine file {}: not the manifest's point {} ({})",
             path.display(),
             p.index,
@@ -761,7 +776,7 @@ pub fn run_task(dir: &Path, task: usize) -> crate::Result<TaskRun> {
         points: swept
             .iter()
             .zip(&points)
-            .map(|(s, p)| Point::new(p.index, s))
+            .map(|(s, p)| Point::new(p.index, s, &keys_of(p)))
             .collect(),
     };
     let out = result_path(dir, task);
@@ -847,6 +862,19 @@ fn check_point(p: &Point, mp: &ManifestPoint) -> Result<(), String> {
         return Err(format!(
             "cores {} threads {} L2 {} KB, but the manifest's point is cores {} threads {} L2 {} KB",
             p.cores, p.threads, p.l2_kb, mp.cores, mp.threads, mp.l2_kb
+        ));
+    }
+    if p.set != mp.set {
+        let show = |s: &[Setting]| {
+            s.iter()
+                .map(|s| format!("{}={}", s.key, s.value))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        return Err(format!(
+            "{}, but the manifest's point has {}",
+            show(&p.set),
+            show(&mp.set)
         ));
     }
     if p.steps.is_empty() {

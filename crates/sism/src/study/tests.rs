@@ -177,6 +177,7 @@ fn count_frame() -> (Scene, CanonicalRecords, MachineConfig, Vec<MachineConfig>)
             cores: vec![1, 2, 4, 8, 16],
             threads: vec![],
             l2_kb: vec![],
+            ..Default::default()
         },
     )
     .unwrap();
@@ -202,6 +203,7 @@ fn prepare(dir: &Path) -> slurm::Manifest {
         machine: "larrabee-24",
         base,
         configs,
+        set_keys: &[],
         records,
     };
     let job = JobOptions {
@@ -254,7 +256,7 @@ fn every_task_succeeding_gives_the_local_backends_bytes() {
     // The local backend on the same frame and machines writes the same study.csv.
     let (_, records, base, configs) = frame();
     let local = tempfile::tempdir().unwrap();
-    let local_points = run_local(records, configs, || ());
+    let local_points = run_local(records, configs, &[], || ());
     write_outputs(local.path(), &label(), base, &local_points).unwrap();
     let slurm_csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
     let local_csv = std::fs::read_to_string(local.path().join("study.csv")).unwrap();

@@ -6,6 +6,8 @@
 //! every caller should get the same pictures.
 
 pub mod bench;
+pub mod roofline;
+pub mod sensitivity;
 pub mod study;
 pub mod trace;
 pub mod validate;
