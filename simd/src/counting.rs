@@ -38,6 +38,19 @@ struct State {
     retired: u64,
     /// Vector operations issued (indexes the window ring).
     issued: usize,
+    /// The depths of recent scalar results, direct-mapped by their [`crate::ChainKey`]: (key,
+    /// epoch-tagged depth). A value not found (never produced in this epoch, or evicted by another
+    /// key in its slot) is ready at the epoch's start.
+    scalars: Box<[(u64, u64); SCALAR_SLOTS]>,
+}
+
+/// Slots of [`State::scalars`]: the scalar results whose depth a task remembers.
+const SCALAR_SLOTS: usize = 1024;
+
+/// The slot of a scalar key.
+#[inline(always)]
+fn scalar_slot(key: u64) -> usize {
+    (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 54) as usize
 }
 
 /// The nominal out-of-order window, in vector operations: an operation cannot start before the
@@ -91,6 +104,28 @@ impl State {
         self.epoch << 32 | local.min(MAX_LOCAL_DEPTH)
     }
 
+    /// The depth (relative to the epoch's start) of the scalar with key `key`.
+    #[inline(always)]
+    fn scalar_depth(&self, key: Option<u64>) -> u64 {
+        key.map_or(0, |k| {
+            let (stored, depth) = self.scalars[scalar_slot(k)];
+            if stored == k {
+                self.local(depth)
+            } else {
+                0
+            }
+        })
+    }
+
+    /// Remembers that the scalar with key `key` is `local` deep (relative to the epoch's start).
+    #[inline(always)]
+    fn set_scalar(&mut self, key: Option<u64>, local: u64) {
+        if let Some(k) = key {
+            let tagged = self.tagged(local);
+            self.scalars[scalar_slot(k)] = (k, tagged);
+        }
+    }
+
     /// Appends `line` to the task's stream.
     #[inline(always)]
     fn push_line(&mut self, line: u64, write: bool) {
@@ -119,6 +154,7 @@ impl Recorder {
                 record_lines,
                 done: Vec::new(),
                 epoch: next_epoch(),
+                scalars: Box::new([(0, 0); SCALAR_SLOTS]),
                 top: 0,
                 window: Box::new([0; WINDOW]),
                 retired: 0,
@@ -244,8 +280,9 @@ pub mod latency {
 /// A vector under the counting context: the wrapped backend's value and the depth of the
 /// dependency chain that produced it, in nominal cycles ([`latency`]). A result is as deep as its
 /// deepest input plus its own latency; the recorder keeps, per task, the deepest result: the
-/// task's critical path. Masks and scalars carry no depth (a chain through a mask or through
-/// `extract` restarts at the task's base).
+/// task's critical path. Masks carry no depth (a chain through a mask restarts at the task's
+/// base); scalars carry theirs in the recorder's table (see [`crate::ChainKey`]), so a chain
+/// through `extract_f`, `to_array_f`, a float reduction or `splat_f` continues.
 #[derive(Clone, Copy, Debug)]
 pub struct Tracked<T> {
     value: T,
@@ -502,7 +539,13 @@ macro_rules! fwd_reduce {
         #[inline(always)]
         fn $name(self, v: $ty) -> $ret {
             self.reduce(v.depth);
-            self.inner.$name(v.value)
+            let r = self.inner.$name(v.value);
+            // The scalar result continues the vector's chain.
+            self.rec.with(|st| {
+                let d = st.local(v.depth) + latency::REDUCE;
+                st.set_scalar(crate::ChainKey::chain_key(r), d);
+            });
+            r
         }
     )* };
 }
@@ -516,8 +559,58 @@ impl<B: Simd> Simd for Counting<'_, B> {
         self.inner.kind()
     }
 
+    /// A broadcast scalar continues the scalar's chain (a counted scalar result's depth).
+    #[inline(always)]
+    fn splat_f(self, x: f32) -> Self::F32 {
+        let d = self.rec.with(|st| {
+            let local = st.scalar_depth(crate::ChainKey::chain_key(x));
+            if local == 0 {
+                0
+            } else {
+                st.tagged(local)
+            }
+        });
+        Tracked {
+            value: self.inner.splat_f(x),
+            depth: d,
+        }
+    }
+    /// Each lane, as a scalar, continues the vector's chain.
+    #[inline(always)]
+    fn to_array_f(self, v: Self::F32) -> [f32; 16] {
+        self.op(Class::Store, 16, false, v.depth, 0);
+        let a = self.inner.to_array_f(v.value);
+        self.rec.with(|st| {
+            let d = st.local(v.depth);
+            if d > 0 {
+                for x in a {
+                    st.set_scalar(crate::ChainKey::chain_key(x), d);
+                }
+            }
+        });
+        a
+    }
+    /// The lane, as a scalar, continues the vector's chain.
+    #[inline(always)]
+    fn extract_f(self, v: Self::F32, lane: usize) -> f32 {
+        let d = self.op(Class::Valu, 16, false, v.depth, latency::EXTRACT);
+        let x = self.inner.extract_f(v.value, lane);
+        self.rec.with(|st| {
+            let local = st.local(d);
+            st.set_scalar(crate::ChainKey::chain_key(x), local);
+        });
+        x
+    }
+    #[inline(always)]
+    fn scalar_chain(self, latency: u64, a: Option<u64>, b: Option<u64>, out: Option<u64>) {
+        self.rec.with(|st| {
+            let d = st.scalar_depth(a).max(st.scalar_depth(b)) + latency;
+            st.top = st.top.max(d);
+            st.set_scalar(out, d);
+        })
+    }
+
     fwd_free! {
-        fn splat_f(self, x: f32) -> Self::F32;
         fn splat_i(self, x: i32) -> Self::I32;
         fn index_i(self) -> Self::I32;
         fn cast_f_i(self, a: Self::F32) -> Self::I32;
@@ -529,12 +622,10 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn from_array_i(self, a: [i32; 16]) -> Self::I32;
     }
     fwd! { Store, 0;
-        fn to_array_f(self, v: Self::F32) -> [f32; 16];
         fn to_array_i(self, v: Self::I32) -> [i32; 16];
     }
 
     fwd! { Valu, latency::EXTRACT;
-        fn extract_f(self, v: Self::F32, lane: usize) -> f32;
         fn extract_i(self, v: Self::I32, lane: usize) -> i32;
     }
     fwd! { Valu, latency::ARITH;

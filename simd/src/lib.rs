@@ -101,8 +101,8 @@ pub use mask::{Mask16, MaskIter};
 pub use portable::{F32x16, I32x16, Portable};
 pub use record::{Counters, DecodeError, LineIter, LineStream, LineStreamEncoder, TaskRecord, NO_TASK};
 pub use simd::{
-    BackendKind, ScalarClass, ScalarNum, Simd, ACOS_MAX_ABS_ERR, ACOS_MAX_REL_ERR, ASIN_MAX_REL_ERR,
-    ATAN2_MAX_ABS_ERR, ATAN2_MAX_REL_ERR, LANES,
+    scalar_latency, BackendKind, ChainKey, ScalarClass, ScalarNum, Simd, ACOS_MAX_ABS_ERR, ACOS_MAX_REL_ERR,
+    ASIN_MAX_REL_ERR, ATAN2_MAX_ABS_ERR, ATAN2_MAX_REL_ERR, LANES,
 };
 
 #[cfg(target_arch = "x86_64")]

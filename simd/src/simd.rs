@@ -47,6 +47,7 @@ pub enum ScalarClass {
 /// The scalar number types the counted scalar operations take.
 pub trait ScalarNum:
     Copy
+    + ChainKey
     + PartialOrd
     + core::ops::Add<Output = Self>
     + core::ops::Sub<Output = Self>
@@ -58,6 +59,54 @@ pub trait ScalarNum:
     /// The type's own `max`.
     fn max_of(self, b: Self) -> Self;
 }
+
+/// What identifies a scalar value for the counting context's dependency chains: floats by their
+/// bits (and type); integers, flags and counters are not followed (`None`: their chains are one
+/// cycle an operation, loop counters mostly, and small integers repeat too often to tell apart).
+/// A float produced by a counted operation is as deep as that operation's chain; one never
+/// produced in the task (a constant, a loaded value) is ready when the task begins.
+pub trait ChainKey: Copy {
+    /// The key of this value, if its chain is followed.
+    fn chain_key(self) -> Option<u64> {
+        None
+    }
+}
+impl ChainKey for f32 {
+    #[inline(always)]
+    fn chain_key(self) -> Option<u64> {
+        // The commonest constants (±0, ±1) are not followed: an operation reading the literal 1.0
+        // does not depend on the last operation that happened to produce 1.0.
+        let b = self.to_bits() & 0x7fff_ffff;
+        (b != 0 && b != 0x3f80_0000).then_some(u64::from(self.to_bits()) | 1 << 32)
+    }
+}
+impl ChainKey for f64 {
+    #[inline(always)]
+    fn chain_key(self) -> Option<u64> {
+        let b = self.to_bits() & 0x7fff_ffff_ffff_ffff;
+        (b != 0 && b != 0x3ff0_0000_0000_0000).then_some(self.to_bits() ^ 0x9e37_79b9_7f4a_7c15)
+    }
+}
+impl ChainKey for bool {}
+impl ChainKey for u8 {}
+impl ChainKey for u16 {}
+impl ChainKey for u32 {}
+impl ChainKey for u64 {}
+impl ChainKey for i32 {}
+impl ChainKey for i64 {}
+impl ChainKey for usize {}
+
+/// Nominal latencies of the counted scalar operations, cycles (as [`crate::latency`]'s for vector
+/// operations; a machine scales both by `latency_scale`): Zen 4's and Ice Lake's scalar SSE figures
+/// (Agner Fog's tables: `addss`/`mulss`/`minss` 3, `divss` 10–11, `sqrtss` 12–15; the divide
+/// taken as the vector one's, 14).
+pub mod scalar_latency {
+    /// Add, subtract, multiply, min/max, conversions and the other ALU operations.
+    pub const ALU: u64 = 3;
+    /// Divide and square root (the vector unit's correctly rounded divide, [`crate::latency::DIV`]).
+    pub const DIV: u64 = 14;
+}
+
 macro_rules! scalar_num {
     ($($t:ty),*) => { $(
         impl ScalarNum for $t {
@@ -491,6 +540,13 @@ pub trait Simd: Copy {
     fn scalar_ops(self, n: u64) {
         let _ = n;
     }
+    /// Under the counting context: the scalar result `out` is `latency` nominal cycles deeper than
+    /// the deeper of its inputs `a` and `b` (keys from [`ChainKey`]; `None`: not followed). A no-op
+    /// natively. The counted scalar operations below call it.
+    #[inline(always)]
+    fn scalar_chain(self, latency: u64, a: Option<u64>, b: Option<u64>, out: Option<u64>) {
+        let _ = (latency, a, b, out);
+    }
     /// Count one scalar operation of `class` executed by the kernel (a no-op natively). Kernels
     /// call the counted operations below ([`Simd::s_add`], [`Simd::s_lt`], [`Simd::s_load`], ...),
     /// which execute the operation and count it here.
@@ -508,44 +564,62 @@ pub trait Simd: Copy {
     #[inline(always)]
     fn s_add<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Alu);
-        a + b
+        let r = a + b;
+        self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar `a - b` ([`ScalarClass::Alu`]).
     #[inline(always)]
     fn s_sub<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Alu);
-        a - b
+        let r = a - b;
+        self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar `a * b` ([`ScalarClass::Alu`]).
     #[inline(always)]
     fn s_mul<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Alu);
-        a * b
+        let r = a * b;
+        self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar `a / b` ([`ScalarClass::Div`]).
     #[inline(always)]
     fn s_div<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Div);
-        a / b
+        let r = a / b;
+        self.scalar_chain(scalar_latency::DIV, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar `a.min(b)`, the type's own ([`ScalarClass::Alu`]).
     #[inline(always)]
     fn s_min<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Alu);
-        a.min_of(b)
+        let r = a.min_of(b);
+        self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar `a.max(b)`, the type's own ([`ScalarClass::Alu`]).
     #[inline(always)]
     fn s_max<T: ScalarNum>(self, a: T, b: T) -> T {
         self.scalar_op(ScalarClass::Alu);
-        a.max_of(b)
+        let r = a.max_of(b);
+        self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
+        r
     }
     /// Scalar float `f(x)` of the float library (`f64::sqrt`, `f32::floor`, ...): square roots
     /// count as [`ScalarClass::Div`], the rest (`abs`, `floor`, `ceil`, conversions) as ALU.
     #[inline(always)]
-    fn s_fn<T, U>(self, class: ScalarClass, x: T, f: fn(T) -> U) -> U {
+    fn s_fn<T: ChainKey, U: ChainKey>(self, class: ScalarClass, x: T, f: fn(T) -> U) -> U {
         self.scalar_op(class);
-        f(x)
+        let r = f(x);
+        let latency = match class {
+            ScalarClass::Div => scalar_latency::DIV,
+            _ => scalar_latency::ALU,
+        };
+        self.scalar_chain(latency, x.chain_key(), None, r.chain_key());
+        r
     }
     /// Scalar comparison feeding a branch: `a < b` ([`ScalarClass::Branch`]).
     #[inline(always)]

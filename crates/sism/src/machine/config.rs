@@ -163,10 +163,13 @@ pub struct MachineConfig {
     /// `scalar_issue_per_clock` (0.01–10000). Larrabee: 1.
     #[serde(default = "one")]
     pub scalar_cycles: f64,
-    /// Cycles of one counted scalar divide or square root (0.01–10000), not divided by the issue
-    /// rate (the divider is not pipelined). Larrabee: 33, the P54C's double-precision `FDIV`
-    /// (Pentium Processor Family Developer's Manual; Larrabee's cores derive from it). Hosts: the
-    /// family's `divsd` latency (13 on Zen 4 and Ice Lake).
+    /// Issue cycles of one counted scalar divide or square root (0.01–10000), not divided by the
+    /// issue rate: the divider's occupancy. Its latency is on the task's recorded critical path
+    /// (scalars carry chain depths: [`sism_simd::scalar_latency`]). Larrabee: 33, the P54C's
+    /// double-precision `FDIV`, which blocks the in-order pipeline for its whole latency (Pentium
+    /// Processor Family Developer's Manual; Larrabee's cores derive from it). Hosts: fitted by
+    /// `sism calibrate` on four independent divide and square-root chains (the family table's 4
+    /// otherwise: `divss`/`sqrtss` reciprocal throughput on Zen 4 and Ice Lake).
     #[serde(default = "scalar_div_default")]
     pub scalar_div_cycles: f64,
     /// Least cost of one gather or scatter instruction, cycles, whatever lines it touches

@@ -279,8 +279,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         load_store_cycles: fam.load_store * slow as f64,
         compress_cycles: fam.compress * slow as f64,
         scalar_cycles: fam.scalar,
-        // `divsd` latency, the same on the families here (a divide in setup code is on its chain).
-        scalar_div_cycles: 13.0,
+        // The divider's occupancy per divide or square root (`divss` 3.5, `sqrtss` ~5 cycles of
+        // reciprocal throughput on Zen 4 and Ice Lake): its latency is on the recorded chains.
+        scalar_div_cycles: 4.0,
         gather_cycles: fam.gather * (1.0 + 0.25 * (slow - 1) as f64),
         separate_ports: true,
         memory_parallelism: fam.memory_parallelism,
