@@ -73,8 +73,8 @@ fn local_study(dir: &Path) -> PathBuf {
     dir.join("local")
 }
 
-/// (a) A 6-point sweep submitted to Slurm and collected with --watch writes the local backend's
-/// study.csv, byte for byte (and the same plots).
+/// (a) A 12-point sweep (cores × threads × an `--set` parameter) submitted to Slurm and collected
+/// with --watch writes the local backend's study.csv, byte for byte (and the same plots).
 #[test]
 fn slurm_array_gives_the_local_study() {
     if !slurm_available() {
@@ -82,15 +82,25 @@ fn slurm_array_gives_the_local_study() {
     }
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let local = local_study(dir);
+    // Any machine parameter swept (`--set`) goes through the array too: 12 points.
+    let set = ["--set", "atomic_cycles=8,16"];
+    ok(&study(dir, "local", "1,2,4", &set), "local study");
+    let local = dir.join("local");
     ok(
-        &study(dir, "slurm", "1,2,4", &["--backend", "slurm", "--chunk", "2"]),
+        &study(
+            dir,
+            "slurm",
+            "1,2,4",
+            &["--backend", "slurm", "--chunk", "2", set[0], set[1]],
+        ),
         "slurm study",
     );
     let s = dir.join("slurm");
     let jobs = String::from_utf8(read(s.join("jobs.txt"))).unwrap();
     assert_eq!(jobs.lines().count(), 1, "one job submitted: {jobs}");
-    assert!(jobs.contains("array=0-2"), "{jobs}");
+    assert!(jobs.contains("array=0-5"), "{jobs}");
+    let manifest = String::from_utf8(read(s.join("manifest.toml"))).unwrap();
+    assert!(manifest.contains("key = \"atomic_cycles\""), "{manifest}");
     let out = sism(
         dir,
         &[
@@ -114,7 +124,12 @@ fn slurm_array_gives_the_local_study() {
     for f in ["speedup.png", "phases.png"] {
         assert!(read(s.join(f)) == read(local.join(f)), "{f}: slurm == local");
     }
-    for k in 0..3 {
+    let csv = String::from_utf8(read(s.join("study.csv"))).unwrap();
+    assert!(
+        csv.starts_with("cores,threads,l2_kb,atomic_cycles,phase,"),
+        "{csv}"
+    );
+    for k in 0..6 {
         let log = String::from_utf8(read(s.join(format!("logs/task-{k}.out")))).unwrap();
         assert!(
             log.contains(&format!("task {k}: points")),
