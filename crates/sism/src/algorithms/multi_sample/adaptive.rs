@@ -39,7 +39,7 @@ use super::super::shadow_map::{self as sm, lookup::Method as MapMethod};
 use super::super::{
     AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource,
 };
-use super::{disk_normal, light_points, LATTICE_SIDE};
+use super::{disk_normal, light_points, receiver_facing, LATTICE_SIDE};
 use crate::algorithms::sism::grid::SampleIn;
 use crate::algorithms::sism::light_samples::{self, LightSamples};
 use crate::counted;
@@ -458,18 +458,8 @@ impl Kernel for SampleCodes<'_> {
         // receiver's tag (its line here), normal and facing test, the code's load, conversion and
         // store, and the value's choice, load or conversion, and store.
         for k in 0..self.samples.len() {
-            let smp = &self.samples[k];
-            s.scalar_op(ScalarClass::Branch);
-            s.scalar_op(ScalarClass::Mem);
-            s.scalar_op(ScalarClass::Mem);
-            let r = &self.receivers[smp.pixel as usize];
-            s.scalar_read(std::slice::from_ref(r));
-            s.scalar_op(ScalarClass::Mem);
-            let facing = s.s_branch(r.is_some())
-                && r.is_some_and(|r| {
-                    s.scalar_op(ScalarClass::Mem);
-                    s.s_lt(0.0, counted::dot(s, r.normal, counted::sub(s, self.point, smp.q)))
-                });
+            let facing = receiver_facing(s, self.receivers, &self.samples[k], self.point)
+                .is_some_and(|d| s.s_lt(0.0, d));
             let c = s.s_fn(ScalarClass::Alu, counted::streamed(s, self.codes, k), |c: f32| {
                 c as u8
             });

@@ -294,17 +294,7 @@ impl Kernel for Accumulate<'_> {
             s.scalar_read(&self.samples[i..(i + 16).min(self.samples.len())]);
             let mut facing = [0f32; 16];
             for (lane, smp) in self.samples[i..].iter().enumerate().take(16) {
-                s.scalar_op(ScalarClass::Branch);
-                s.scalar_op(ScalarClass::Mem);
-                s.scalar_op(ScalarClass::Mem);
-                let r = &self.receivers[smp.pixel as usize];
-                s.scalar_read(std::slice::from_ref(r));
-                s.scalar_op(ScalarClass::Mem);
-                s.s_branch(r.is_some());
-                facing[lane] = r.map_or(0.0, |r| {
-                    s.scalar_op(ScalarClass::Mem);
-                    counted::dot(s, r.normal, counted::sub(s, self.point, smp.q))
-                });
+                facing[lane] = receiver_facing(s, self.receivers, smp, self.point).unwrap_or(0.0);
                 s.scalar_op(ScalarClass::Mem);
             }
             let up = s.mask_and(m, s.cmp_gt_f(s.from_array_f(facing), zero));
@@ -317,6 +307,30 @@ impl Kernel for Accumulate<'_> {
         s.end_task();
         hidden
     }
+}
+
+/// `n · (point − q)` of sample `smp`'s receiver (its normal against its line to the light point
+/// `point`, relative to the light centre as `q` is); `None` without a receiver. Counted by `s`: the
+/// loop's branch, the sample's pixel and position (their lines read by the caller with the samples),
+/// the receiver's tag and its branch (its line here), the normal, the difference and dot product.
+#[inline(always)]
+fn receiver_facing<S: Simd>(
+    s: S,
+    receivers: &[Option<Receiver>],
+    smp: &SampleIn,
+    point: Vec3,
+) -> Option<f32> {
+    s.scalar_op(ScalarClass::Branch);
+    s.scalar_op(ScalarClass::Mem);
+    s.scalar_op(ScalarClass::Mem);
+    let r = &receivers[smp.pixel as usize];
+    s.scalar_read(std::slice::from_ref(r));
+    s.scalar_op(ScalarClass::Mem);
+    s.s_branch(r.is_some());
+    r.map(|r| {
+        s.scalar_op(ScalarClass::Mem);
+        counted::dot(s, r.normal, counted::sub(s, point, smp.q))
+    })
 }
 
 #[cfg(test)]
