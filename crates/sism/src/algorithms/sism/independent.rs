@@ -51,7 +51,7 @@ pub fn visible_fraction(
     );
     for (c, _) in &counters {
         umbra.samples_tested += c[0];
-        penumbra.add_bin([c[1], c[2], c[3], 0]);
+        penumbra.add_bin([c[1], c[2], c[3], 0, 0, 0, 0]);
     }
     penumbra.set_quads_per_sample(counters.iter().map(|c| &c.1));
     penumbra.tasks += counters.len() as u64;
@@ -197,7 +197,7 @@ impl Kernel for OcclusionBin<'_> {
             at = end;
         }
         s.end_task();
-        let ([culled_rows, culled_samples, evaluated, _], reached) = wedge.output();
+        let ([culled_rows, culled_samples, evaluated, ..], reached) = wedge.output();
         ([tested, culled_rows, culled_samples, evaluated], reached)
     }
 }

@@ -59,6 +59,10 @@ pub struct SismOptions {
     /// which a bin part measures what its samples' rays to their light points cost, and casts them
     /// where they are cheaper ([`sampled::RayFallback`]); 0: never.
     pub ray_evaluations: u32,
+    /// Rays a ray-cast sample adds where its first 64 disagree ([`sampled::RayFallback::refine_points`]).
+    pub ray_refine_points: u32,
+    /// Which probed parts cast rays ([`sampled::RayFallback::choice`]).
+    pub ray_choice: sampled::RayChoice,
     /// Triangles of the scene's BVH if it is not built yet (0 when it is): see
     /// [`sampled::RayFallback::unbuilt_triangles`].
     pub unbuilt_bvh_triangles: usize,
@@ -240,6 +244,8 @@ pub fn render_frame<'a>(
                             receivers,
                             unbuilt_triangles: options.unbuilt_bvh_triangles,
                             min_evaluations: options.ray_evaluations,
+                            refine_points: options.ray_refine_points,
+                            choice: options.ray_choice,
                         }),
                     &mut stats.penumbra,
                 )),
@@ -332,16 +338,40 @@ samples' shadow rays to their 64 light points cost, and casts them where they co
 work (cost-aware penumbra); 0: never",
 });
 
+const RAY_REFINE_POINTS: IntParam = IntParam::new(ParamSpec {
+    key: "ray_refine_points",
+    kind: ParamKind::Int {
+        min: 0,
+        max: sampled::MAX_REFINE_POINTS as i64,
+    },
+    default: "192",
+    description: "shadow rays a ray-cast sample adds when its rays to its 64 light points disagree (some \
+hidden, some not): the penumbra's noise is there; 0: none",
+});
+
+const RAY_CHOICE: ChoiceParam<sampled::RayChoice> = ChoiceParam::new(
+    ParamSpec {
+        key: "ray_parts",
+        kind: ParamKind::Choice(&["cost", "all"]),
+        default: "cost",
+        description: "cost: a part whose estimate reaches ray_evaluations casts rays where its probed rays \
+cost less than its Eq. 3 work; all: every such part casts them (the rays alone, to test or measure them)",
+    },
+    &[sampled::RayChoice::Cost, sampled::RayChoice::All],
+);
+
 /// SISM's parameters (the grid's resolution).
 const GRID_PARAMS: [ParamSpec; 3] = [SAMPLES_PER_COLUMN.spec(), SLICES.spec(), BIN_COLUMNS.spec()];
 
 /// The light-point composition's parameters: the grid's and the estimator.
-const SAMPLED_PARAMS: [ParamSpec; 5] = [
+const SAMPLED_PARAMS: [ParamSpec; 7] = [
     GRID_PARAMS[0],
     GRID_PARAMS[1],
     GRID_PARAMS[2],
     ESTIMATOR.spec(),
     RAY_EVALUATIONS.spec(),
+    RAY_REFINE_POINTS.spec(),
+    RAY_CHOICE.spec(),
 ];
 
 /// Default of `ray_evaluations`: below it a sample's Eq. 3 light-point work is cheaper than its 64
@@ -405,6 +435,14 @@ impl SismOptions {
             },
             ray_evaluations: match composition {
                 Composition::Sampled => params.get(&RAY_EVALUATIONS) as u32,
+                _ => 0,
+            },
+            ray_choice: match composition {
+                Composition::Sampled => params.get(&RAY_CHOICE),
+                _ => sampled::RayChoice::Cost,
+            },
+            ray_refine_points: match composition {
+                Composition::Sampled => params.get(&RAY_REFINE_POINTS) as u32,
                 _ => 0,
             },
             unbuilt_bvh_triangles: 0,

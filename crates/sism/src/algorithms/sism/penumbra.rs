@@ -56,6 +56,13 @@ crate::declare_stats! {
         pub ray_probe_work: u64 => ("penumbra.ray_probe_work", "steps", "beam-walk steps of the probes (node tests, 16-ray triangle and box tests)"),
         /// Samples of those parts.
         pub ray_samples: u64 => ("penumbra.ray_samples", "samples", "samples whose light points were ray-cast"),
+        /// Ray-cast samples whose first light points disagreed (some hidden, some not), which then
+        /// cast rays to `ray_refine_points` more points.
+        pub ray_samples_refined: u64 => ("penumbra.ray_samples_refined", "samples", "ray-cast samples partly lit at their 64 light points, which cast ray_refine_points more rays"),
+        /// Shadow rays cast by the ray-cast samples (points below a receiver's horizon cast none).
+        pub rays_cast: u64 => ("penumbra.rays_cast", "rays", "shadow rays cast by the ray-cast samples"),
+        /// Ray-cast samples that cast no refinement because their first points all agreed.
+        pub ray_refinements_skipped: u64 => ("penumbra.ray_refinements_skipped", "samples", "ray-cast samples whose 64 light points all agreed (all lit or all hidden): no refinement rays"),
         /// Sample-edge evaluations of Eq. 3 (active lanes).
         pub samples_evaluated: u64 => ("penumbra.samples_evaluated", "evaluations", "Eq. 3 evaluations (active lanes)"),
         /// `samples_evaluated` per grid sample (mean; see [`PenumbraStats::finish`]).
@@ -71,15 +78,21 @@ crate::declare_stats! {
     }
 }
 
+/// What a penumbra bin task counted: `[rows culled, samples culled, samples evaluated, samples that
+/// cast rays instead, of those the samples refined, rays cast, samples whose refinement was skipped]`.
+pub type BinCounts = [u64; 7];
+
 impl PenumbraStats {
-    /// Adds the counters a bin task returned: `[rows culled, samples culled, samples evaluated,
-    /// samples that cast rays instead]`.
-    pub fn add_bin(&mut self, c: [u64; 4]) {
+    /// Adds the counters a bin task returned (see [`BinCounts`]).
+    pub fn add_bin(&mut self, c: BinCounts) {
         self.rows_culled_by_wedge += c[0];
         self.samples_culled_by_wedge += c[1];
         self.samples_evaluated += c[2];
         self.ray_samples += c[3];
         self.ray_parts += u64::from(c[3] > 0);
+        self.ray_samples_refined += c[4];
+        self.rays_cast += c[5];
+        self.ray_refinements_skipped += c[6];
     }
 
     /// The distribution of quads per sample from every bin's per-sample counts (bin-local order;
@@ -319,7 +332,7 @@ pub fn run_parts<'a, T, K, F>(
     task: F,
 ) where
     T: Send,
-    K: Kernel<Output = ([u64; 4], Vec<u32>)> + Send,
+    K: Kernel<Output = (BinCounts, Vec<u32>)> + Send,
     F: Fn(&'a BinPart, &'a mut [T]) -> K + Sync,
 {
     let counters = phase.run_par(
@@ -630,9 +643,9 @@ impl<'a> WedgeScan<'a> {
 
     /// A penumbra task's output ([`run_parts`]): `[rows culled, samples culled, samples evaluated,
     /// 0]` and the quads per part-local sample.
-    pub fn output(self) -> ([u64; 4], Vec<u32>) {
+    pub fn output(self) -> (BinCounts, Vec<u32>) {
         (
-            [self.culled[0], self.culled[1], self.evaluated, 0],
+            [self.culled[0], self.culled[1], self.evaluated, 0, 0, 0, 0],
             self.reached.unwrap_or_default(),
         )
     }
@@ -756,9 +769,9 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
 
 impl Kernel for PenumbraBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
-    type Output = ([u64; 4], Vec<u32>);
+    type Output = (BinCounts, Vec<u32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<u32>) {
         s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);

@@ -57,7 +57,7 @@ use sism_simd::{Kernel, ScalarClass, Simd};
 
 use super::grid::Grid;
 use super::occlusion::{edge_frame, region_area, signed_sum, EdgeRecord};
-use super::penumbra::{bin_parts, run_parts, BinPart, PenumbraStats, WedgeScan};
+use super::penumbra::{bin_parts, run_parts, BinCounts, BinPart, PenumbraStats, WedgeScan};
 use super::{Occluders, SismLight, StageInputs};
 use crate::algorithms::reference::DiskRays;
 use crate::bvh::beam::{Beam, BEAM_RAYS};
@@ -109,26 +109,33 @@ struct PointSet {
 /// Angle (radians) by which a group's cone is opened beyond its outermost points.
 const CONE_SLACK: f64 = 1e-4;
 
-/// Fibonacci spiral: point `k` at radius `√((k + ½) / N)` and angle `k · golden angle`, so each point
-/// stands for an equal share of the disk's area; then ordered by angle.
-fn point_set() -> PointSet {
+/// `n` points of the unit disk on a Fibonacci spiral: point `k` at radius `√((k + ½) / n)` and angle
+/// `phase + k · golden angle`, so each point stands for an equal share of the disk's area; then ordered by
+/// angle (rays cast to them in this order make compact beams).
+fn spiral(n: usize, phase: f64) -> Vec<(f32, f32)> {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    let mut points: Vec<(f64, f32, f32)> = (0..LIGHT_POINTS)
+    let mut points: Vec<(f64, f32, f32)> = (0..n)
         .map(|k| {
-            let r = ((k as f64 + 0.5) / LIGHT_POINTS as f64).sqrt();
-            let a = k as f64 * golden;
+            let r = ((k as f64 + 0.5) / n as f64).sqrt();
+            let a = k as f64 * golden + phase;
             let (x, y) = ((r * a.cos()) as f32, (r * a.sin()) as f32);
             (f64::from(y).atan2(f64::from(x)), x, y)
         })
         .collect();
     points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    points.into_iter().map(|(_, x, y)| (x, y)).collect()
+}
+
+/// The [`LIGHT_POINTS`] points ([`spiral`]) in groups of 16, with each group's cone and radius.
+fn point_set() -> PointSet {
+    let points = spiral(LIGHT_POINTS, 0.0);
     let mut set = PointSet {
         x: [[0.0; 16]; GROUPS],
         y: [[0.0; 16]; GROUPS],
         cone: [[0.0; 4]; GROUPS],
         radius: [0.0; GROUPS],
     };
-    for (k, &(_, x, y)) in points.iter().enumerate() {
+    for (k, &(x, y)) in points.iter().enumerate() {
         set.x[k / 16][k % 16] = x;
         set.y[k / 16][k % 16] = y;
         let r = &mut set.radius[k / 16];
@@ -175,16 +182,50 @@ pub struct RayFallback<'a> {
     /// Estimated Eq. 3 evaluations per sample at or above which a bin part probes its rays' cost
     /// (>= 1); it casts them where they are cheaper than its Eq. 3 work.
     pub min_evaluations: u32,
+    /// Rays a ray-cast sample adds (0..=[`MAX_REFINE_POINTS`]) when its first [`LIGHT_POINTS`] rays
+    /// disagree (some hidden, some not): the penumbra's variance is there, so that is where more
+    /// rays lower the error; a sample whose first rays all agree keeps their answer.
+    pub refine_points: u32,
+    /// Which probed parts cast rays.
+    pub choice: RayChoice,
 }
 
-/// A part's Eq. 3 work is estimated from every `ESTIMATE_STRIDE`-th quad's wedge selection (the cheap
-/// half of the work); only parts with at least `min_evaluations` quads can reach the threshold.
+/// Which parts whose estimated Eq. 3 work reaches the threshold cast rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RayChoice {
+    /// Those whose probed rays cost less than their estimated Eq. 3 work (and the BVH is built only
+    /// when the work they could save pays for it).
+    #[default]
+    Cost,
+    /// All of them (the rays alone: to test them, or to measure what they cost and give).
+    All,
+}
+
+/// Angle (radians) by which the refinement's spiral is turned from the first points': half a golden
+/// angle, the largest gap between consecutive spiral angles.
+const REFINE_PHASE: f64 = std::f64::consts::PI * (3.0 - 2.236_067_977_499_79) / 2.0;
+
+/// Most rays a partly lit ray-cast sample adds ([`RayFallback::refine_points`]): one beam.
+pub const MAX_REFINE_POINTS: usize = BEAM_RAYS;
+
+/// A part's Eq. 3 evaluations are estimated from every `ESTIMATE_STRIDE`-th quad's wedge selection
+/// (the cheap half of the work); only parts whose quads could reach the threshold (at most one
+/// evaluation per quad and sample, plus [`QUAD_EVALUATIONS`] per quad) run the estimate.
 const ESTIMATE_STRIDE: usize = 16;
 
-/// The BVH build's cost per triangle in Eq. 3 evaluations (about 1 µs against 30 ns on the project's
-/// AVX-512 host): a frame builds it for its ray-casting parts only when the evaluations they save
-/// beyond the threshold exceed this times the triangles.
-pub const BUILD_EVALUATIONS_PER_TRIANGLE: u64 = 32;
+/// A bin part's cost per quad of its list, whatever its wedge selects (preparing the quad for the
+/// part, its rows' entry depths and the wedge scan), in Eq. 3 evaluations. Measured on the project's
+/// AVX-512 host (palm under a 3 m light, 320×240, every one of 788 parts evaluating Eq. 3; a fit of
+/// part time against evaluations and quads): 14.7 ns an evaluation, 124 ns a quad; rounded down, so
+/// that a close call keeps Eq. 3. In foliage under a large light a part's quads cost as much as its
+/// evaluations (40% of the step).
+const QUAD_EVALUATIONS: u64 = 8;
+
+/// The BVH build's cost per triangle in Eq. 3 evaluations (0.87 µs a triangle on the palm against
+/// 14.7 ns an evaluation on the project's AVX-512 host, rounded up): a frame builds it for its
+/// ray-casting parts only when the evaluations they save beyond the threshold exceed this times the
+/// triangles.
+pub const BUILD_EVALUATIONS_PER_TRIANGLE: u64 = 64;
 
 /// Visible fraction of every sample (sorted order) under light-point composition, one task per bin
 /// part (step `light_points`). `depth` is the umbra's depth complexity per sample (sorted order).
@@ -212,10 +253,23 @@ pub fn visible_fraction(
     // the threshold cannot reach it (one evaluation per quad and sample at most).
     let mut cast = vec![false; parts.len()];
     let mut ray_tracer = None;
+    // The refinement's points ([`spiral`]), as `x` and `y` rows.
+    // Turned by half a golden angle from the first points, so that no refinement point repeats one
+    // of them (with 64 refinement points the spirals would otherwise coincide).
+    let refine: (Vec<f32>, Vec<f32>) = spiral(
+        rays.map_or(0, |r| (r.refine_points as usize).min(MAX_REFINE_POINTS)),
+        REFINE_PHASE,
+    )
+    .into_iter()
+    .unzip();
     if let Some(r) = rays {
         let threshold = r.min_evaluations.max(1) as u64;
         let candidates: Vec<usize> = (0..parts.len())
-            .filter(|&k| lists.of(parts[k].bin).len() as u64 >= threshold)
+            .filter(|&k| {
+                // At most one evaluation per quad and sample, plus each quad's own cost.
+                let (quads, n) = (lists.of(parts[k].bin).len() as u64, parts[k].samples.len() as u64);
+                quads * (n + QUAD_EVALUATIONS) >= threshold * n
+            })
             .collect();
         let estimates = phase.run_par(
             "ray_estimate",
@@ -237,13 +291,15 @@ pub fn visible_fraction(
             }
         }
         // The BVH is built only if the candidates' work beyond the threshold could pay for it.
-        if !probed.is_empty() && saved >= BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64 {
+        let pays = saved >= BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64;
+        if !probed.is_empty() && (pays || r.choice == RayChoice::All) {
             let tracer = LightPointRays {
                 bvh: (r.bvh)(),
                 receivers: r.receivers,
                 grid,
                 light: inputs.light,
                 points: &points,
+                refine: (&refine.0, &refine.1),
                 rotations: (&rotations.0, &rotations.1),
             };
             // Step `ray_probe`: what rays cost here (a foliage receiver's 64 rays can take 20× an
@@ -261,7 +317,7 @@ pub fn visible_fraction(
                 stats.ray_probe_work += beam_work;
                 let n = parts[k].samples.len() as f64;
                 let ray_cost = beam_work as f64 / n_probed.max(1) as f64 * n * EVALUATIONS_PER_BEAM_OP;
-                cast[k] = ray_cost < estimate as f64;
+                cast[k] = r.choice == RayChoice::All || ray_cost < estimate as f64;
             }
             ray_tracer = cast.contains(&true).then_some(tracer);
         }
@@ -314,7 +370,24 @@ struct LightPointRays<'a> {
     grid: &'a Grid,
     light: &'a SismLight,
     points: &'a PointSet,
+    /// The refinement's points (`x`, `y`; empty: no refinement).
+    refine: (&'a [f32], &'a [f32]),
     rotations: (&'a [f32], &'a [f32]),
+}
+
+/// What one ray-cast sample found.
+#[derive(Clone, Copy, Debug, Default)]
+struct RaySample {
+    /// Visible fraction (`None`: no receiver facing the light).
+    visible: Option<f32>,
+    /// The beam walks' work (node tests + triangle and box vectors).
+    work: u64,
+    /// Rays cast.
+    rays: u64,
+    /// Whether the first rays disagreed and the refinement's were cast.
+    refined: bool,
+    /// Whether the first rays all agreed (so a refinement, if enabled, was not needed).
+    agreed: bool,
 }
 
 /// A sample's beam and the walk's scratch, reused across samples.
@@ -322,8 +395,16 @@ struct RayScratch {
     beam: Beam,
     stack: Vec<(u32, u16)>,
     hits: [sism_simd::Mask16; BEAM_RAYS / 16],
-    offsets: [glam::Vec3; LIGHT_POINTS],
+    /// Light-point offsets of the sample (the first points, then the refinement's).
+    offsets: [glam::Vec3; OFFSETS],
 }
+
+/// Light-point offsets a [`RayScratch`] holds: the first points or the refinement's, whichever is more.
+const OFFSETS: usize = if LIGHT_POINTS > MAX_REFINE_POINTS {
+    LIGHT_POINTS
+} else {
+    MAX_REFINE_POINTS
+};
 
 impl RayScratch {
     fn new(light: &SismLight) -> RayScratch {
@@ -331,7 +412,7 @@ impl RayScratch {
             beam: Beam::new(light.center),
             stack: Vec::new(),
             hits: [sism_simd::Mask16::NONE; BEAM_RAYS / 16],
-            offsets: [glam::Vec3::ZERO; LIGHT_POINTS],
+            offsets: [glam::Vec3::ZERO; OFFSETS],
         }
     }
 }
@@ -340,10 +421,11 @@ impl LightPointRays<'_> {
     /// Visible fraction of sample `sample` (sorted order) by shadow rays to its light points: a point
     /// is lit when no triangle crosses the segment to it. A point below the receiver's tangent plane
     /// casts no ray and counts lit here, because the resolve's horizon term accounts for it (as for
-    /// Eq. 3's counts). `None` for a sample without a receiver facing the light; with the walk's work
-    /// (node tests + triangle and box vectors).
+    /// Eq. 3's counts). First the [`LIGHT_POINTS`] points; when their rays disagree (some hidden,
+    /// some not) and a refinement is set, rays to its points too, and the fraction is over all of
+    /// them (each set spreads its points evenly over the disk, one equal area each).
     #[inline(always)]
-    fn visible<S: Simd>(&self, s: S, sample: usize, scratch: &mut RayScratch) -> (Option<f32>, u64) {
+    fn visible<S: Simd>(&self, s: S, sample: usize, scratch: &mut RayScratch) -> RaySample {
         let c = self.light.center;
         // Counted: the sample's pixel and receiver, the disk's basis, the light points and each
         // point's ray into the beam.
@@ -351,40 +433,94 @@ impl LightPointRays<'_> {
         let rcv = self.receivers.pixels.get(pixel as usize).copied().flatten();
         s.scalar_op(ScalarClass::Mem);
         let Some(rcv) = s.s_branch(rcv.is_some()).then(|| rcv.expect("tested")) else {
-            return (None, 0);
+            return RaySample::default();
         };
         // (Samples are receivers facing the light centre, by the same test.)
         let Some(disk) = DiskRays::new_counted(s, self.bvh, c, self.light.radius, &rcv) else {
-            return (None, 0);
+            return RaySample::default();
         };
-        light_points_into(
+        let q = counted::sub(s, rcv.position, c);
+        let first = self.cast(
             s,
-            counted::sub(s, rcv.position, c),
+            &disk,
+            q,
             pixel,
-            self.points,
-            self.rotations,
-            &mut scratch.offsets,
+            self.points.x.as_flattened(),
+            self.points.y.as_flattened(),
+            scratch,
         );
+        let (mut lit, mut points) = (first.lit, LIGHT_POINTS as u32);
+        let mut out = RaySample {
+            visible: None,
+            work: first.work,
+            rays: first.rays as u64,
+            refined: false,
+            agreed: true,
+        };
+        // The first rays disagree: some hit, some did not (points below the horizon cast none).
+        let blocked = s.s_sub(LIGHT_POINTS as u32, first.lit);
+        if s.s_branch(blocked > 0 && blocked < first.rays) {
+            out.agreed = false;
+            if s.s_branch(!self.refine.0.is_empty()) {
+                let more = self.cast(s, &disk, q, pixel, self.refine.0, self.refine.1, scratch);
+                lit = s.s_add(lit, more.lit);
+                points = s.s_add(points, self.refine.0.len() as u32);
+                out.work += more.work;
+                out.rays += more.rays as u64;
+                out.refined = true;
+            }
+        }
+        let fraction = s.s_fn(ScalarClass::Alu, lit, |l: u32| l as f32);
+        out.visible = Some(s.s_div(fraction, s.s_fn(ScalarClass::Alu, points, |p: u32| p as f32)));
+        out
+    }
+
+    /// Casts one beam from `disk`'s origin to the sample's points `(xs, ys)` (unit disk, at most
+    /// [`BEAM_RAYS`]) rotated by the pixel's angle: how many are lit (no ray, or a ray that hit
+    /// nothing), how many rays were cast, and the walk's work.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn cast<S: Simd>(
+        &self,
+        s: S,
+        disk: &DiskRays,
+        q: glam::Vec3,
+        pixel: u32,
+        xs: &[f32],
+        ys: &[f32],
+        scratch: &mut RayScratch,
+    ) -> BeamCast {
+        let c = self.light.center;
+        let n = xs.len();
+        light_points_into(s, q, pixel, xs, ys, self.rotations, &mut scratch.offsets[..n]);
         scratch.beam.reset(disk.origin);
         // In order of angle (compact vectors); the answer is a count, so the order changes nothing.
-        for k in 0..LIGHT_POINTS {
+        for k in 0..n {
             let o = counted::streamed(s, &scratch.offsets, k);
             let target = counted::add(s, c, counted::scale(s, o, self.light.radius));
             if let Some((dir, len)) = disk.ray_counted(s, target) {
                 scratch.beam.push_counted(s, dir, len);
             }
         }
+        let rays = scratch.beam.len() as u32;
         let counts = self
             .bvh
             .beams()
             .occluded(s, &scratch.beam, &mut scratch.stack, &mut scratch.hits);
         let blocked: u32 = scratch.hits.iter().map(|m| m.count()).sum();
-        let work = counts.nodes + counts.triangle_vectors + counts.box_vectors;
-        (
-            Some((LIGHT_POINTS as u32 - blocked) as f32 / LIGHT_POINTS as f32),
-            work,
-        )
+        BeamCast {
+            lit: n as u32 - blocked,
+            rays,
+            work: counts.nodes + counts.triangle_vectors + counts.box_vectors,
+        }
     }
+}
+
+/// One beam's answer ([`LightPointRays::cast`]).
+struct BeamCast {
+    lit: u32,
+    rays: u32,
+    work: u64,
 }
 
 /// Samples of a candidate part whose rays step `ray_probe` casts (evenly spread over the part).
@@ -412,17 +548,18 @@ impl Kernel for RayProbe<'_> {
         let (mut work, mut probed) = (0, 0);
         for j in 0..PROBE_SAMPLES.min(n) {
             let i = self.part.samples.start + (2 * j + 1) * n / (2 * PROBE_SAMPLES.min(n));
-            let (visible, w) = self.tracer.visible(s, i, &mut scratch);
-            work += w;
-            probed += visible.is_some() as u64;
+            let r = self.tracer.visible(s, i, &mut scratch);
+            work += r.work;
+            probed += r.visible.is_some() as u64;
         }
         s.end_task();
         (work, probed)
     }
 }
 
-/// Step `ray_estimate`: a part's Eq. 3 evaluations (samples inside each quad's wedge, summed),
-/// estimated from every `ESTIMATE_STRIDE`-th quad.
+/// Step `ray_estimate`: a part's Eq. 3 work in evaluations: its evaluations (samples inside each
+/// quad's wedge, summed, estimated from every `ESTIMATE_STRIDE`-th quad) plus [`QUAD_EVALUATIONS`]
+/// per quad.
 struct EvaluationEstimate<'a> {
     edges: &'a [EdgeRecord],
     light: &'a SismLight,
@@ -441,22 +578,28 @@ impl Kernel for EvaluationEstimate<'_> {
             wedge.quad(s, &self.edges[e as usize]);
         }
         s.end_task();
-        wedge.evaluated * ESTIMATE_STRIDE as u64
+        wedge.evaluated * ESTIMATE_STRIDE as u64 + QUAD_EVALUATIONS * self.quads.len() as u64
     }
 }
 
 impl SampledBin<'_> {
     /// The part's visible fractions by shadow rays to each sample's light points (see
-    /// [`LightPointRays::visible`]).
+    /// [`LightPointRays::visible`]); `[samples refined, rays cast, samples whose first rays agreed]`.
     #[inline(always)]
-    fn cast_rays<S: Simd>(&mut self, s: S, rays: LightPointRays<'_>) {
+    fn cast_rays<S: Simd>(&mut self, s: S, rays: LightPointRays<'_>) -> [u64; 3] {
         let base = self.part.samples.start;
         let mut scratch = RayScratch::new(self.light);
+        let mut counts = [0u64; 3];
         for (i, out) in self.out.iter_mut().enumerate() {
-            if let (Some(visible), _) = rays.visible(s, base + i, &mut scratch) {
+            let r = rays.visible(s, base + i, &mut scratch);
+            if let Some(visible) = r.visible {
                 *out = visible;
+                counts[0] += u64::from(r.refined);
+                counts[1] += r.rays;
+                counts[2] += u64::from(r.agreed);
             }
         }
+        counts
     }
 }
 
@@ -521,17 +664,20 @@ fn disk_bases<S: Simd>(s: S, task: &SampledBin, positions: (&[f32], &[f32], &[f3
 
 impl Kernel for SampledBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
-    type Output = ([u64; 4], Vec<u32>);
+    type Output = (BinCounts, Vec<u32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<u32>) {
         s.begin_task(task_kind::SAMPLED_BIN);
         let positions = self.part.positions(self.grid);
         let n_samples = positions.0.len();
         if let Some(rays) = self.rays {
             let mut task = self;
-            task.cast_rays(s, rays);
+            let [refined, cast, agreed] = task.cast_rays(s, rays);
             s.end_task();
-            return ([0, 0, 0, n_samples as u64], vec![0; n_samples]);
+            return (
+                [0, 0, 0, n_samples as u64, refined, cast, agreed],
+                vec![0; n_samples],
+            );
         }
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);
         let bases = disk_bases(s, &self, positions);
@@ -803,25 +949,40 @@ fn both_below<S: Simd>(s: S, a: S::F32, b: S::F32, ta: S::F32, tb: S::F32) -> si
 pub fn light_point_offsets(q: glam::Vec3, pixel: u32) -> Vec<glam::Vec3> {
     let mut out = [glam::Vec3::ZERO; LIGHT_POINTS];
     let (cos, sin) = rotation_table();
+    let p = point_set();
     light_points_into(
         sism_simd::Portable,
         q,
         pixel,
-        &point_set(),
+        p.x.as_flattened(),
+        p.y.as_flattened(),
         (&cos, &sin),
         &mut out,
     );
     out.to_vec()
 }
 
-/// [`light_point_offsets`] with the tables given and no allocation.
+/// The `n` refinement points (`n` ≤ [`MAX_REFINE_POINTS`]) a ray-cast sample at `q` shading `pixel`
+/// adds when its first rays disagree, as [`light_point_offsets`] gives the first ones (a scalar
+/// mirror, for tests).
+pub fn refine_point_offsets(q: glam::Vec3, pixel: u32, n: usize) -> Vec<glam::Vec3> {
+    let (xs, ys): (Vec<f32>, Vec<f32>) = spiral(n.min(MAX_REFINE_POINTS), REFINE_PHASE).into_iter().unzip();
+    let mut out = vec![glam::Vec3::ZERO; xs.len()];
+    let (cos, sin) = rotation_table();
+    light_points_into(sism_simd::Portable, q, pixel, &xs, &ys, (&cos, &sin), &mut out);
+    out
+}
+
+/// [`light_point_offsets`] with the tables given and no allocation, for the points `(xs, ys)` of the
+/// unit disk (one offset each into `out`, as long as `xs`).
 fn light_points_into<S: Simd>(
     s: S,
     q: glam::Vec3,
     pixel: u32,
-    p: &PointSet,
+    xs: &[f32],
+    ys: &[f32],
     (cos, sin): (&[f32], &[f32]),
-    out: &mut [glam::Vec3; LIGHT_POINTS],
+    out: &mut [glam::Vec3],
 ) {
     use glam::Vec3;
     // Counted by `s` (the same bits as plain arithmetic): the basis, the pixel's rotation (a hash and
@@ -842,8 +1003,7 @@ fn light_points_into<S: Simd>(
     let (cj, sj) = (s.s_load(cos, j), s.s_load(sin, j));
     let e1 = counted::add(s, counted::scale(s, u, cj), counted::scale(s, v, sj));
     let e2 = counted::sub(s, counted::scale(s, v, cj), counted::scale(s, u, sj));
-    for (k, o) in out.iter_mut().enumerate() {
-        let (px, py) = (p.x[k / 16][k % 16], p.y[k / 16][k % 16]);
+    for ((o, &px), &py) in out.iter_mut().zip(xs).zip(ys) {
         s.scalar_op(ScalarClass::Mem);
         s.scalar_op(ScalarClass::Mem);
         *o = counted::add(s, counted::scale(s, e1, px), counted::scale(s, e2, py));
