@@ -156,7 +156,7 @@ fn library_bench_measures_every_candidate_against_one_truth() {
     let only = ["reference", "sism", "shadow-map", "pcss"].map(String::from);
     let candidates = bench::candidates(&[("spp", vec!["4".into()])], Some(&only)).unwrap();
     let (truth, info) = bench::render_truth(&scene, 64, false).unwrap();
-    let report = bench::bench_scene(&scene, &candidates, &truth.visibility, info, 2, false).unwrap();
+    let report = bench::bench_scene(&scene, &candidates, &truth.visibility, info, 2, false, None).unwrap();
     assert_eq!(report.rows.len(), candidates.len());
     for r in &report.rows {
         assert_eq!(r.times_ms.len(), 2);
@@ -171,7 +171,7 @@ fn library_bench_measures_every_candidate_against_one_truth() {
         file: None,
         time_ms: None,
     };
-    let e = bench::bench_scene(&scene, &candidates, &small, info, 1, false)
+    let e = bench::bench_scene(&scene, &candidates, &small, info, 1, false, None)
         .unwrap_err()
         .to_string();
     assert!(e.contains("8x8") && e.contains("48x36"), "{e}");

@@ -368,6 +368,7 @@ fn corpus() -> Corpus {
             configs: &configs,
             set_keys: &[],
             records: &canonical,
+            sensitivity_factor: None,
         },
         &job,
         &mut |_, _| {},

@@ -138,7 +138,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .map(super::resolve_machine)
         .transpose()
         .context("--machine")?;
-    let mut report = bench::bench_scene(&scene, &candidates, &truth, truth_info, a.repeats, progress)?;
+    let images = create_dir(&out.join("images"))?;
+    let mut report = bench::bench_scene(
+        &scene,
+        &candidates,
+        &truth,
+        truth_info,
+        a.repeats,
+        progress,
+        Some(&images),
+    )?;
     if let Some(config) = &config {
         bench::simulate_rows(
             &scene,
@@ -157,6 +166,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         &(serde_json::to_string_pretty(&report)? + "\n"),
     )?;
     sism::output::plots::bench::bench(&out.join("bench.png"), &report)?;
+    bench::write_report(&out, &report, "truth/visibility.png")?;
     print_stdout(to_table(&report).trim_end())?;
     if progress {
         note!("wrote {}", out.display());

@@ -16,6 +16,7 @@ mod multi_sample;
 mod obj_loading;
 mod rbsm;
 mod registry;
+mod report_html;
 mod shadow_maps;
 mod shared_scenes;
 mod sism;

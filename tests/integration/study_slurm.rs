@@ -74,7 +74,8 @@ fn local_study(dir: &Path) -> PathBuf {
 }
 
 /// (a) A 12-point sweep (cores × threads × an `--set` parameter) submitted to Slurm and collected
-/// with --watch writes the local backend's study.csv, byte for byte (and the same plots).
+/// with --watch writes the local backend's study.csv, byte for byte (and the same plots, roofline
+/// and report).
 #[test]
 fn slurm_array_gives_the_local_study() {
     if !slurm_available() {
@@ -121,7 +122,15 @@ fn slurm_array_gives_the_local_study() {
         String::from_utf8(read(local.join("study.csv"))).unwrap(),
         "study.csv: slurm == local"
     );
-    for f in ["speedup.png", "phases.png"] {
+    // The roofline of the base point and the report come from the collected points as from the
+    // local ones.
+    for f in [
+        "speedup.png",
+        "phases.png",
+        "roofline.md",
+        "roofline.png",
+        "report.html",
+    ] {
         assert!(read(s.join(f)) == read(local.join(f)), "{f}: slurm == local");
     }
     let csv = String::from_utf8(read(s.join("study.csv"))).unwrap();
@@ -136,6 +145,77 @@ fn slurm_array_gives_the_local_study() {
             "task {k}'s log: {log}"
         );
     }
+}
+
+/// (a') `sensitivity --backend slurm`: the analysis's replays as a job array; `study collect` writes
+/// the local analysis's sensitivity.csv and sensitivity.md byte for byte, its chart and its report.
+#[test]
+fn slurm_array_gives_the_local_sensitivity() {
+    if !slurm_available() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let scene = scene();
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "sensitivity",
+            &scene,
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--machine",
+            "larrabee-16",
+            "--out",
+            out,
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        sism(dir, &args)
+    };
+    ok(&run("local", &[]), "local sensitivity");
+    ok(
+        &run("slurm", &["--backend", "slurm", "--chunk", "16"]),
+        "slurm sensitivity",
+    );
+    let s = dir.join("slurm");
+    let manifest = String::from_utf8(read(s.join("manifest.toml"))).unwrap();
+    assert!(manifest.contains("sensitivity_factor = 2.0"), "{manifest}");
+    let out = sism(
+        dir,
+        &[
+            "study",
+            "collect",
+            "slurm",
+            "--watch",
+            "--interval",
+            "0.2",
+            "--timeout",
+            "120",
+        ],
+    );
+    ok(&out, "collect --watch");
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        printed.contains("This frame is limited by"),
+        "collect prints the verdict: {printed}"
+    );
+    let local = dir.join("local");
+    for f in [
+        "sensitivity.csv",
+        "sensitivity.md",
+        "sensitivity.png",
+        "report.html",
+    ] {
+        assert!(read(s.join(f)) == read(local.join(f)), "{f}: slurm == local");
+    }
+    // A sensitivity directory is not a study: no study.csv.
+    assert!(!s.join("study.csv").exists());
+    // Options of the Slurm backend are refused with the local one.
+    let bad = run("bad", &["--chunk", "2"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--backend slurm"));
 }
 
 /// (b) A task killed half way (tasks 1 and 4 never finished; task 1 left a partial temporary file)

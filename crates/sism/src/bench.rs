@@ -179,6 +179,35 @@ pub struct BenchRow {
     /// On the time–error Pareto front of the run: no other row is at most as slow and at most as
     /// wrong (median ms, MAE) and better in one.
     pub pareto: bool,
+    /// The first repeat's visibility picture, relative to the bench's folder (`images/NN-….png`),
+    /// when the bench wrote pictures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub image: Option<String>,
+    /// Its |error| heat map against the truth ([`HEATMAP_SCALE`] is full yellow), relative.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_image: Option<String>,
+}
+
+/// |error| drawn full yellow in the bench's error maps (as `compare --heatmap`'s default).
+pub const HEATMAP_SCALE: f32 = 0.25;
+
+/// The file stem of row `index`'s pictures: its number, algorithm and setting, in characters safe
+/// in a file name and a link.
+pub fn picture_stem(index: usize, algorithm: &str, setting: &str) -> String {
+    let mut s = format!("{index:02}-{algorithm}");
+    if setting != "-" && !setting.is_empty() {
+        s.push('-');
+        s.push_str(setting);
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// Marks the rows on the Pareto front of (median ms, MAE): a row is on it when no other row has
@@ -307,6 +336,9 @@ pub enum BenchError {
         /// Bench image height, pixels.
         height: u32,
     },
+    /// A candidate's pictures could not be written.
+    #[error("{0}")]
+    Pictures(crate::Error),
     /// A candidate's image could not be scored against the truth.
     #[error("scoring {algorithm} {setting} against the truth: {source}")]
     Score {
@@ -321,7 +353,8 @@ pub enum BenchError {
 }
 
 /// Runs `candidates` on `scene` against `truth`, each `repeats` times, with a progress bar when
-/// `progress` is set.
+/// `progress` is set. With `pictures` (a folder, `images/` of the bench's output), each row's first
+/// image and its error map are written there as PNGs, named in the row ([`BenchRow::image`]).
 pub fn bench_scene(
     scene: &Scene,
     candidates: &[Candidate],
@@ -329,6 +362,7 @@ pub fn bench_scene(
     truth_info: TruthInfo,
     repeats: u32,
     progress: bool,
+    pictures: Option<&std::path::Path>,
 ) -> Result<BenchReport, BenchError> {
     if repeats == 0 {
         return Err(BenchError::NoRepeats);
@@ -372,7 +406,39 @@ pub fn bench_scene(
                     source: e,
                 }
             })?;
+        let (image, error_image) = match pictures {
+            Some(dir) => {
+                let stem = picture_stem(rows.len(), c.algorithm.name, &c.setting);
+                let (image, error_image) = (format!("{stem}.png"), format!("{stem}-error.png"));
+                crate::output::pictures::write_visibility_png(&dir.join(&image), &first.visibility)
+                    .map_err(BenchError::Pictures)?;
+                let errors =
+                    metrics::abs_error_map(truth, &first.visibility).map_err(|e| BenchError::Score {
+                        algorithm: c.algorithm.name.into(),
+                        setting: c.setting.clone(),
+                        source: e,
+                    })?;
+                crate::output::pictures::write_error_heatmap(
+                    &dir.join(&error_image),
+                    width,
+                    height,
+                    &errors,
+                    HEATMAP_SCALE,
+                )
+                .map_err(BenchError::Pictures)?;
+                let folder = dir
+                    .file_name()
+                    .map_or(String::new(), |n| format!("{}/", n.to_string_lossy()));
+                (
+                    Some(format!("{folder}{image}")),
+                    Some(format!("{folder}{error_image}")),
+                )
+            }
+            None => (None, None),
+        };
         rows.push(BenchRow {
+            image,
+            error_image,
             algorithm: c.algorithm.name.into(),
             family: c.algorithm.family.name().into(),
             setting: c.setting.clone(),
@@ -480,6 +546,102 @@ pub fn to_csv(report: &BenchReport) -> String {
     s
 }
 
+/// `report.html` of a bench in `out`: the plot, every row (a sortable table), the Pareto front, the
+/// truth's and every row's picture side by side with their error maps, and a flipper between any
+/// two of them. `truth_picture` is the truth's visibility PNG, relative to `out`.
+pub fn write_report(out: &std::path::Path, report: &BenchReport, truth_picture: &str) -> crate::Result<()> {
+    use crate::output::report::{Picture, Report};
+    let name = report
+        .scene
+        .file_stem()
+        .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+    let mut r = Report::new(&format!(
+        "Run time against error: {name} {}x{}",
+        report.width, report.height
+    ));
+    let truth = match (&report.truth.file, report.truth.spp) {
+        (Some(f), _) => format!("the image {}", f.display()),
+        (None, Some(spp)) => format!("the reference at {spp} spp"),
+        _ => "a given image".into(),
+    };
+    r.paragraph(&format!(
+        "{} triangles; {} host threads, simd backend {}; truth: {truth}. Time: {} Error maps:          |visibility error| from black (0) through red to yellow ({HEATMAP_SCALE} and above), grey          where nothing is compared. Files beside this page: `bench.csv`, `bench.json`, `pareto.md`.",
+        report.triangles, report.host_threads, report.simd_backend, report.timing
+    ));
+    r.figure("bench.png", "Median time against MAE, every row");
+    let header: Vec<String> = [
+        "algorithm",
+        "setting",
+        "median ms",
+        "MAE",
+        "RMSE",
+        "p99",
+        "penumbra MAE",
+        "ꟻLIP",
+        "ref ms at MAE",
+        "ref ÷ it",
+        "simulated ms",
+        "Pareto",
+    ]
+    .map(String::from)
+    .to_vec();
+    let opt = |x: Option<f64>, digits: usize| x.map_or("–".to_string(), |v| format!("{v:.digits$}"));
+    let rows: Vec<Vec<String>> = report
+        .rows
+        .iter()
+        .map(|row| {
+            let e = &row.error;
+            vec![
+                format!("`{}`", row.algorithm),
+                row.setting.clone(),
+                format!("{:.2}", row.median_ms),
+                format!("{:.6}", e.mae),
+                format!("{:.6}", e.rmse),
+                format!("{:.6}", e.p99),
+                format!("{:.6}", e.penumbra_mae),
+                opt(e.flip, 5),
+                opt(row.reference_ms_at_mae, 1),
+                opt(row.reference_ms_at_mae.map(|t| t / row.median_ms), 2),
+                opt(row.sim_ms, 2),
+                if row.pareto { "yes".into() } else { String::new() },
+            ]
+        })
+        .collect();
+    r.heading(2, "Every row").table(&header, &rows);
+    r.heading(2, "The Pareto front")
+        .markdown(&pareto_markdown(report), 3);
+    let mut pictures = vec![Picture {
+        caption: format!("truth ({truth})"),
+        src: truth_picture.to_string(),
+        below: None,
+    }];
+    pictures.extend(report.rows.iter().filter_map(|row| {
+        row.image.as_ref().map(|src| Picture {
+            caption: format!(
+                "{} {} — {:.2} ms, MAE {:.4}",
+                row.algorithm, row.setting, row.median_ms, row.error.mae
+            ),
+            src: src.clone(),
+            below: row.error_image.clone(),
+        })
+    }));
+    if pictures.len() > 1 {
+        r.heading(2, "Flip between two images")
+            .paragraph("Choose A and B; click the image or press the space bar to swap them.");
+        let flips: Vec<Picture> = pictures
+            .iter()
+            .map(|p| Picture {
+                below: None,
+                ..p.clone()
+            })
+            .collect();
+        r.flipper(&flips);
+        r.heading(2, "Every image beside the truth, with its error map")
+            .gallery(&pictures);
+    }
+    r.write(&out.join("report.html"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -515,6 +677,8 @@ mod tests {
             reference_ms_at_mae: None,
             sim_ms: None,
             pareto: false,
+            image: None,
+            error_image: None,
         };
         let mut rows = vec![
             row(10.0, 0.05),

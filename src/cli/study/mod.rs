@@ -3,6 +3,8 @@
 
 mod slurm;
 
+pub(super) use slurm::{prepare_and_submit, JobArgs};
+
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -86,7 +88,7 @@ struct SweepArgs {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-enum Backend {
+pub(super) enum Backend {
     Local,
     Slurm,
 }
@@ -211,6 +213,7 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             configs: &configs,
             set_keys: &set_keys,
             records: &records,
+            sensitivity_factor: None,
         };
         return slurm::prepare_and_submit(&out, &study, &a.slurm, a.quiet);
     }
@@ -219,7 +222,7 @@ fn sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let bar = sism::progress::bar(configs.len() as u64, "simulating", !a.quiet);
     let points = studies::run_local(&records, &configs, &set_keys, || bar.inc(1));
     bar.finish_and_clear();
-    studies::write_outputs(&out, &label, &base, &points)?;
+    studies::write_outputs(&out, &label, &base, &points, &|p| Ok(configs[p.index].clone()))?;
     if !a.quiet {
         print_stdout(&studies::table(&points))?;
         note!("wrote {}", out.display());

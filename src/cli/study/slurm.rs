@@ -213,6 +213,15 @@ pub fn collect(a: CollectArgs) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Collected::Sensitivity(s) => {
+            if !a.quiet {
+                super::print_stdout(&sism::study::sensitivity::table(&s))?;
+                super::print_stdout(sism::study::sensitivity::verdict(&s).trim_end())?;
+                let dir = std::fs::canonicalize(&a.dir).unwrap_or(a.dir.clone());
+                note!("wrote {}", dir.display());
+            }
+            Ok(())
+        }
         Collected::DryRun(s) => report_submitted(&s, &a.dir, a.quiet),
         Collected::Resubmitted(_) => Ok(()),
     }

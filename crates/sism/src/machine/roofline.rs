@@ -56,13 +56,11 @@ pub struct RooflinePoint {
 
 impl RooflinePoint {
     fn of(p: &PhaseReport, group: bool, m: &MachineConfig) -> RooflinePoint {
-        let c = &p.counters;
-        let arithmetic = (c.valu + c.fma + c.transcendental) as f64;
         RooflinePoint {
             name: p.phase.clone(),
             group,
             cycles: p.cycles,
-            lane_ops: arithmetic * c.lane_utilisation() * m.simd_width as f64,
+            lane_ops: lane_ops(p, m),
             l2_bytes: p.memory.l1_misses as f64 * m.line_bytes as f64,
             dram_bytes: p.memory.dram_bytes(m.line_bytes) as f64,
         }
@@ -109,18 +107,47 @@ pub fn points(r: &MachineReport) -> Vec<RooflinePoint> {
         .collect()
 }
 
-/// The table (markdown): per point its cycles, lane operations per cycle, bytes per cycle from L2
-/// and DRAM, intensities, the bounding roof and the share of it reached.
+/// The same points from a study's point (its rows carry the lane operations and bytes), so that a
+/// study, local or collected from Slurm, draws the roofline of its base machine's point.
+pub fn points_of_study(p: &crate::study::Point) -> Vec<RooflinePoint> {
+    let of = |r: &crate::study::Row, group: bool| RooflinePoint {
+        name: r.phase.clone(),
+        group,
+        cycles: r.cycles,
+        lane_ops: r.lane_ops,
+        l2_bytes: r.bytes_l2 as f64,
+        dram_bytes: r.bytes_dram as f64,
+    };
+    std::iter::once(of(&p.frame, true))
+        .chain(p.groups.iter().map(|r| of(r, true)))
+        .chain(p.steps.iter().map(|r| of(r, false)))
+        .collect()
+}
+
+/// The vector lane operations of a phase: arithmetic vector instructions (ALU, FMA, div/sqrt and
+/// other transcendentals) times their active lanes.
+pub fn lane_ops(p: &PhaseReport, m: &MachineConfig) -> f64 {
+    let c = &p.counters;
+    (c.valu + c.fma + c.transcendental) as f64 * c.lane_utilisation() * m.simd_width as f64
+}
+
+/// The table (markdown) of `r`: see [`table_of`].
 pub fn table(r: &MachineReport) -> String {
-    let c = Ceilings::of(&r.config);
+    table_of(&r.config, &points(r))
+}
+
+/// The table (markdown): per point its cycles, lane operations per cycle, bytes per cycle from L2
+/// and DRAM, intensities, the bounding roof and the share of it reached, under `m`'s ceilings.
+pub fn table_of(m: &MachineConfig, points: &[RooflinePoint]) -> String {
+    let c = Ceilings::of(m);
     let mut t = format!(
         "Ceilings of {} (per cycle, whole chip): {:.1} vector lane operations, {:.0} bytes from L2 \
          ({:.0} over the ring), {:.2} bytes from DRAM.\n\n\
          | phase / step | cycles | lane ops/cycle | L2 bytes/cycle | DRAM bytes/cycle | ops/L2 byte | ops/DRAM byte | bound | of roof |\n\
          |---|---|---|---|---|---|---|---|---|\n",
-        r.config.name, c.lane_ops, c.l2_bytes, c.ring_bytes, c.dram_bytes
+        m.name, c.lane_ops, c.l2_bytes, c.ring_bytes, c.dram_bytes
     );
-    for p in points(r) {
+    for p in points {
         let per = |x: f64| x / p.cycles.max(1) as f64;
         let (bound, share) = p.bound(&c);
         let name = if p.group {
@@ -145,8 +172,19 @@ pub fn table(r: &MachineReport) -> String {
 /// Writes `roofline.md` (the ceilings and [`table`]) and `roofline.png` into `out`; `title` names
 /// the frame in the plot.
 pub fn write(out: &std::path::Path, title: &str, r: &MachineReport) -> crate::Result<()> {
-    crate::output::write_atomic(&out.join("roofline.md"), table(r).as_bytes())?;
-    crate::output::plots::roofline::roofline(&out.join("roofline.png"), title, r)
+    write_points(out, title, &r.config, &points(r))
+}
+
+/// Writes `roofline.md` and `roofline.png` of `points` (the frame first, as [`points`] gives them)
+/// under `m`'s ceilings into `out`.
+pub fn write_points(
+    out: &std::path::Path,
+    title: &str,
+    m: &MachineConfig,
+    points: &[RooflinePoint],
+) -> crate::Result<()> {
+    crate::output::write_atomic(&out.join("roofline.md"), table_of(m, points).as_bytes())?;
+    crate::output::plots::roofline::roofline(&out.join("roofline.png"), title, m, points)
 }
 
 #[cfg(test)]

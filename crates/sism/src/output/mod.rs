@@ -6,6 +6,7 @@ pub mod guard;
 pub mod pfm;
 pub mod pictures;
 pub mod plots;
+pub mod report;
 pub mod staged;
 
 use std::io::Write;

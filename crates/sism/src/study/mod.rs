@@ -8,6 +8,7 @@
 //! [`scheduler::Scheduler`] trait). Both end in [`write_outputs`], from [`Point`]s, so `study.csv`
 //! is the same bytes either way.
 
+mod report;
 pub mod scheduler;
 pub mod sensitivity;
 pub mod slurm;
@@ -119,6 +120,10 @@ pub struct Row {
     pub l2_miss_rate: f64,
     /// Bytes moved between DRAM and L2 (fills and write-backs).
     pub bytes_dram: u64,
+    /// Bytes filled into the L1s from the L2 subsets (L1 misses × line), for the roofline.
+    pub bytes_l2: u64,
+    /// Vector lane operations executed (arithmetic instructions × active lanes), for the roofline.
+    pub lane_ops: f64,
 }
 
 /// A row's cycle stack (as [`crate::machine::CycleStack`]).
@@ -167,6 +172,8 @@ impl Point {
             l1_miss_rate: ph.memory.l1_miss_rate(),
             l2_miss_rate: ph.memory.l2_miss_rate(),
             bytes_dram: ph.memory.dram_bytes(line),
+            bytes_l2: ph.memory.l1_misses * line as u64,
+            lane_ops: crate::machine::roofline::lane_ops(ph, &r.config),
         };
         Point {
             index,
@@ -195,8 +202,16 @@ pub fn speedup(points: &[Point], p: &Point) -> f64 {
 }
 
 /// The study's outputs in `out`, whichever backend computed `points` (in sweep order): `study.csv`,
-/// `speedup.png`, `phases.png` (of the base machine's point) and, unless `quiet`, the table.
-pub fn write_outputs(out: &Path, label: &Label, base: &MachineConfig, points: &[Point]) -> crate::Result<()> {
+/// `speedup.png`, `phases.png` and the roofline (`roofline.md`, `roofline.png`) of the base
+/// machine's point, and `report.html` showing them. `machine_of` gives a point's machine (for the
+/// roofline's ceilings).
+pub fn write_outputs(
+    out: &Path,
+    label: &Label,
+    base: &MachineConfig,
+    points: &[Point],
+    machine_of: &dyn Fn(&Point) -> crate::Result<MachineConfig>,
+) -> crate::Result<()> {
     crate::output::write_atomic(&out.join("study.csv"), csv(points).as_bytes())?;
     plots::speedup(&out.join("speedup.png"), label, points)?;
     let table_point = points
@@ -205,7 +220,15 @@ pub fn write_outputs(out: &Path, label: &Label, base: &MachineConfig, points: &[
         .or_else(|| points.iter().find(|p| p.cores == base.cores))
         .or(points.last())
         .ok_or_else(|| crate::Error::invalid("the sweep has no point"))?;
-    plots::phases(&out.join("phases.png"), label, table_point)
+    plots::phases(&out.join("phases.png"), label, table_point)?;
+    let machine = machine_of(table_point)?;
+    let roof = crate::machine::roofline::points_of_study(table_point);
+    let title = format!(
+        "{} {}x{} on {}",
+        label.name, label.width, label.height, machine.name
+    );
+    crate::machine::roofline::write_points(out, &title, &machine, &roof)?;
+    report::write_study(out, label, base, points, table_point, &machine, &roof)
 }
 
 /// The study's table: frame time and speedup per point.

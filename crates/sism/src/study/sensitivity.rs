@@ -363,7 +363,7 @@ pub fn csv(s: &Sensitivity) -> String {
     t
 }
 
-/// Writes `sensitivity.csv`, `sensitivity.md` and `sensitivity.png` into `out`.
+/// Writes `sensitivity.csv`, `sensitivity.md`, `sensitivity.png` and `report.html` into `out`.
 pub fn write_outputs(out: &Path, label: &Label, s: &Sensitivity) -> crate::Result<()> {
     crate::output::write_atomic(&out.join("sensitivity.csv"), csv(s).as_bytes())?;
     let md = format!(
@@ -378,5 +378,6 @@ pub fn write_outputs(out: &Path, label: &Label, s: &Sensitivity) -> crate::Resul
         f = s.factor
     );
     crate::output::write_atomic(&out.join("sensitivity.md"), md.as_bytes())?;
-    crate::output::plots::sensitivity::tornado(&out.join("sensitivity.png"), label, s)
+    crate::output::plots::sensitivity::tornado(&out.join("sensitivity.png"), label, s)?;
+    super::report::write_sensitivity(out, label, s)
 }

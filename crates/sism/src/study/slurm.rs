@@ -41,7 +41,7 @@ use crate::output::write_atomic;
 /// The manifest format this sism writes and reads.
 pub const FORMAT: &str = "sism-study 1";
 /// The result-file format this sism writes and reads.
-pub const RESULT_FORMAT: &str = "sism-study-result 1";
+pub const RESULT_FORMAT: &str = "sism-study-result 2";
 /// Points per array task unless the caller says otherwise.
 pub const DEFAULT_CHUNK: usize = 4;
 /// Largest manifest or result file read, bytes.
@@ -144,6 +144,10 @@ pub struct Study<'a> {
     pub set_keys: &'a [String],
     /// The frame's records.
     pub records: &'a CanonicalRecords,
+    /// A sensitivity analysis's factor (`sism sensitivity --backend slurm`): the configurations are
+    /// then [`super::sensitivity::plan`]'s for the base and this factor, and `collect` writes the
+    /// analysis instead of the study's outputs.
+    pub sensitivity_factor: Option<f64>,
 }
 
 /// `manifest.toml`.
@@ -180,6 +184,9 @@ pub struct Manifest {
     pub chunk: usize,
     /// Array tasks: ⌈points / chunk⌉.
     pub tasks: usize,
+    /// Set for a sensitivity analysis: the factor its plan was made with (see [`Study`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensitivity_factor: Option<f64>,
     /// The points, in sweep order.
     pub point: Vec<ManifestPoint>,
 }
@@ -461,6 +468,7 @@ pub fn prepare(
         records_checksum: hex(&records),
         chunk,
         tasks: points.len().div_ceil(chunk),
+        sensitivity_factor: s.sensitivity_factor,
         point: points,
     };
     m.checksum = m.content_checksum()?;
@@ -478,7 +486,20 @@ pub fn prepare(
         n.starts_with("task-") || n.starts_with(".task-")
     })? + remove_stale(&dir.join("logs"), |n| n.starts_with("task-"))?
         + remove_stale(&dir.join("machines"), |n| n.starts_with("point-"))?
-        + remove_stale(&dir, |n| ["study.csv", "speedup.png", "phases.png"].contains(&n))?;
+        + remove_stale(&dir, |n| {
+            [
+                "study.csv",
+                "speedup.png",
+                "phases.png",
+                "roofline.md",
+                "roofline.png",
+                "report.html",
+                "sensitivity.csv",
+                "sensitivity.md",
+                "sensitivity.png",
+            ]
+            .contains(&n)
+        })?;
     if stale > 0 {
         notes(
             Note::Info,
@@ -691,6 +712,34 @@ pub struct TaskRun {
     pub result: PathBuf,
 }
 
+/// Point `p`'s machine file in the study directory `dir`, checked against the manifest (checksum,
+/// name, cores, threads, L2 and the swept values).
+fn point_machine(dir: &Path, p: &ManifestPoint) -> crate::Result<MachineConfig> {
+    let path = dir.join(&p.machine);
+    let text = crate::input::read_text(&path, "machine file", crate::input::MAX_TEXT_BYTES)?;
+    ensure!(
+        hex(text.as_bytes()) == p.machine_checksum,
+        "machine file {}: its checksum {} is not the manifest's {}: the file was edited or replaced",
+        path.display(),
+        hex(text.as_bytes()),
+        p.machine_checksum
+    );
+    let c = MachineConfig::from_toml(&text, &p.name)
+        .map_err(|e| crate::Error::invalid(format!("machine file {}: {e}", path.display())))?;
+    ensure!(
+        c.name == p.name
+            && c.cores == p.cores
+            && c.threads_per_core == p.threads
+            && c.l2_kb == p.l2_kb
+            && super::settings(&c, &keys_of(p)) == p.set,
+        "machine file {}: not the manifest's point {} ({})",
+        path.display(),
+        p.index,
+        p.name
+    );
+    Ok(c)
+}
+
 /// Runs one array task of the study in `dir`: replays its points on their machines (checked against
 /// the manifest's checksums) and writes `results/task-K.json`.
 pub fn run_task(dir: &Path, task: usize) -> crate::Result<TaskRun> {
@@ -705,32 +754,10 @@ pub fn run_task(dir: &Path, task: usize) -> crate::Result<TaskRun> {
         m.tasks - 1
     );
     let points: Vec<&ManifestPoint> = m.points_of(task).collect();
-    let mut configs = Vec::with_capacity(points.len());
-    for p in &points {
-        let path = dir.join(&p.machine);
-        let text = crate::input::read_text(&path, "machine file", crate::input::MAX_TEXT_BYTES)?;
-        ensure!(
-            hex(text.as_bytes()) == p.machine_checksum,
-            "machine file {}: its checksum {} is not the manifest's {}: the file was edited or replaced",
-            path.display(),
-            hex(text.as_bytes()),
-            p.machine_checksum
-        );
-        let c = MachineConfig::from_toml(&text, &p.name)
-            .map_err(|e| crate::Error::invalid(format!("machine file {}: {e}", path.display())))?;
-        ensure!(
-            c.name == p.name
-                && c.cores == p.cores
-                && c.threads_per_core == p.threads
-                && c.l2_kb == p.l2_kb
-                && super::settings(&c, &keys_of(p)) == p.set,
-            "machine file {}: not the manifest's point {} ({})",
-            path.display(),
-            p.index,
-            p.name
-        );
-        configs.push(c);
-    }
+    let configs = points
+        .iter()
+        .map(|p| point_machine(dir, p))
+        .collect::<crate::Result<Vec<_>>>()?;
     let path = dir.join("records.bin");
     // The size the manifest expects, before reading: a replaced (say sparse, huge) file is refused
     // without being read.
@@ -1006,6 +1033,8 @@ impl Default for CollectOptions {
 pub enum Collected {
     /// Every point was there: `study.csv` and the plots are written; the points, in sweep order.
     Complete(Vec<Point>),
+    /// Every point of a sensitivity analysis was there: its files are written.
+    Sensitivity(Box<super::sensitivity::Sensitivity>),
     /// The missing tasks were resubmitted and not waited for: collect again later.
     Resubmitted(Submitted),
     /// A dry run of the resubmission.
@@ -1147,7 +1176,32 @@ pub fn collect(
         width: m.width,
         height: m.height,
     };
-    write_outputs(dir, &label, &base, &points)?;
+    if let Some(factor) = m.sensitivity_factor {
+        // The plan again, from the base machine and the factor: it must be the manifest's machines.
+        let plan = super::sensitivity::plan(&base, factor)?;
+        ensure!(
+            plan.configs.len() == m.point.len()
+                && plan
+                    .configs
+                    .iter()
+                    .zip(&m.point)
+                    .all(|(c, p)| hex(c.to_toml().as_bytes()) == p.machine_checksum),
+            "study manifest {}: its machines are not the sensitivity plan of machine.toml with factor              {factor} (written by another sism?)",
+            manifest_path(dir).display()
+        );
+        let s = super::sensitivity::analyse(&plan, &points)?;
+        super::sensitivity::write_outputs(dir, &label, &s)?;
+        return Ok(Collected::Sensitivity(Box::new(s)));
+    }
+    let machine_of = |p: &Point| {
+        let mp = m
+            .point
+            .iter()
+            .find(|q| q.index == p.index)
+            .ok_or_else(|| crate::Error::invalid(format!("point {} is not in the manifest", p.index)))?;
+        point_machine(dir, mp)
+    };
+    write_outputs(dir, &label, &base, &points, &machine_of)?;
     Ok(Collected::Complete(points))
 }
 

@@ -205,6 +205,7 @@ fn prepare(dir: &Path) -> slurm::Manifest {
         configs,
         set_keys: &[],
         records,
+        sensitivity_factor: None,
     };
     let job = JobOptions {
         chunk: 2,
@@ -257,7 +258,10 @@ fn every_task_succeeding_gives_the_local_backends_bytes() {
     let (_, records, base, configs) = frame();
     let local = tempfile::tempdir().unwrap();
     let local_points = run_local(records, configs, &[], || ());
-    write_outputs(local.path(), &label(), base, &local_points).unwrap();
+    write_outputs(local.path(), &label(), base, &local_points, &|p| {
+        Ok(configs[p.index].clone())
+    })
+    .unwrap();
     let slurm_csv = std::fs::read_to_string(dir.join("study.csv")).unwrap();
     let local_csv = std::fs::read_to_string(local.path().join("study.csv")).unwrap();
     assert!(
@@ -265,6 +269,11 @@ fn every_task_succeeding_gives_the_local_backends_bytes() {
         "study.csv differs:\n{slurm_csv}\n---\n{local_csv}"
     );
     assert!(dir.join("speedup.png").is_file() && dir.join("phases.png").is_file());
+    // The roofline of the base point too, from the collected rows as from the local ones.
+    let roofline = |d: &std::path::Path| std::fs::read_to_string(d.join("roofline.md")).unwrap();
+    assert_eq!(roofline(&dir), roofline(local.path()));
+    assert!(roofline(&dir).contains("| **frame** |"));
+    assert!(dir.join("report.html").is_file() && dir.join("roofline.png").is_file());
 }
 
 #[test]

@@ -7,15 +7,17 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::{canvas, draw_error, register_fonts, save, PALETTE, PLOT_SIZE as SIZE};
-use crate::machine::roofline::{points, Ceilings};
-use crate::machine::MachineReport;
+use crate::machine::roofline::{Ceilings, RooflinePoint};
+use crate::machine::MachineConfig;
 
-/// Draws the roofline of `r` (its phases and the frame) to `path`; `title` names the frame.
-pub fn roofline(path: &Path, title: &str, r: &MachineReport) -> crate::Result<()> {
+/// Draws the roofline of `points` (the frame first, then phases and steps: only the frame and the
+/// phases are drawn) under `m`'s ceilings to `path`; `title` names the frame.
+pub fn roofline(path: &Path, title: &str, m: &MachineConfig, points: &[RooflinePoint]) -> crate::Result<()> {
     register_fonts();
     let err = |e: &dyn std::fmt::Display| draw_error(path, e);
-    let c = Ceilings::of(&r.config);
-    let groups: Vec<_> = points(r).into_iter().filter(|p| p.group).collect();
+    let c = Ceilings::of(m);
+    let frame_cycles = points.first().map_or(1, |p| p.cycles).max(1);
+    let groups: Vec<&RooflinePoint> = points.iter().filter(|p| p.group).collect();
     // Intensities span the plot; a point without traffic sits at the right edge.
     let finite = |x: f64| x.is_finite() && x > 0.0;
     let xs: Vec<f64> = groups
@@ -87,7 +89,7 @@ pub fn roofline(path: &Path, title: &str, r: &MachineReport) -> crate::Result<()
                 .label(format!(
                     "{} ({:.0}%)",
                     p.name,
-                    100.0 * p.cycles as f64 / r.frame.cycles.max(1) as f64
+                    100.0 * p.cycles as f64 / frame_cycles as f64
                 ))
                 .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
             chart
