@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use sism::algorithms::reference::{self, ReferenceOptions};
+use sism::algorithms::sism::sampled::LightPoints;
 use sism::algorithms::sism::{render_scene, Composition, SceneFrame as SismFrame, SismOptions};
 use sism::bvh::SceneBvh;
 use sism::exec::Exec;
@@ -296,7 +297,7 @@ fn counting_execution_gives_the_same_bits_and_records_every_phase() {
 }
 
 /// With open planar occluders the outline is the same from every light point, so the light-point
-/// composition has no approximation left: each pixel's visibility must be the share of its 64 light
+/// composition has no approximation left: each pixel's visibility must be the share of its light
 /// points that a ray from the receiver reaches unblocked — ray-cast here to the very same points.
 #[test]
 fn light_point_counts_equal_ray_casts_to_the_same_points() {
@@ -309,12 +310,19 @@ fn light_point_counts_equal_ray_casts_to_the_same_points() {
     };
     let scene = overlapping_plates();
     let frame = render_scene(&scene, &SceneTopology::build(&scene), &options, Exec::Native);
-    check_against_brute_force_rays(&scene, &frame.visibility, &frame.receivers, 0);
+    check_against_brute_force_rays(
+        &scene,
+        &frame.visibility,
+        &frame.receivers,
+        LightPoints::default(),
+        0,
+    );
 }
 
 /// The cost-aware penumbra: bins that cast rays to their light points instead of evaluating Eq. 3
 /// (here nearly every bin with a quad: `ray_evaluations=1`) give the same points' answer, natively and counted
-/// alike, and say how many samples took that path.
+/// alike, and say how many samples took that path. With 64 light points: the cost-aware choice's
+/// constants were measured with them (with more points fewer parts find rays cheaper).
 #[test]
 fn bins_that_cast_rays_give_the_light_points_answer() {
     let scene = overlapping_plates();
@@ -326,6 +334,7 @@ fn bins_that_cast_rays_give_the_light_points_answer() {
                 ("ray_evaluations", "1"),
                 ("estimator", "fraction"),
                 ("ray_refine_points", "0"),
+                ("light_points", "64"),
             ],
             exec,
         )
@@ -355,12 +364,13 @@ fn bins_that_cast_rays_give_the_light_points_answer() {
         Exec::Native,
     )
     .receivers;
-    check_against_brute_force_rays(&scene, &native.visibility, &receivers, 0);
+    check_against_brute_force_rays(&scene, &native.visibility, &receivers, LightPoints::P64, 0);
 }
 
-/// The ray-cast samples whose rays to their 64 light points disagree cast `ray_refine_points` more
-/// (another spiral, turned): their visibility is the lit share of all `64 + n` points; samples whose
-/// 64 rays agree keep that answer and cast no more. Natively and counted alike; the counters add up.
+/// The ray-cast samples whose rays to their light points (the default 128) disagree cast
+/// `ray_refine_points` more (another spiral, turned): their visibility is the lit share of all
+/// `128 + n` points; samples whose rays agree keep that answer and cast no more. Natively and counted
+/// alike; the counters add up.
 #[test]
 fn ray_cast_samples_that_disagree_add_the_refinement_rays() {
     let scene = overlapping_plates();
@@ -396,9 +406,10 @@ fn ray_cast_samples_that_disagree_add_the_refinement_rays() {
     assert!(refined > 200.0, "penumbra samples refined: {refined}");
     assert!(agreed > 200.0, "lit or hidden samples not refined: {agreed}");
     assert!(refined + agreed <= samples);
-    // Every refined sample cast its refinement's rays on top of at most 64 (none below the horizon
-    // here: the plates lie above the ground, the light above them).
-    assert!(stat("penumbra.rays_cast") <= 64.0 * samples + refine as f64 * refined);
+    // Every refined sample cast its refinement's rays on top of at most one per light point (none
+    // below the horizon here: the plates lie above the ground, the light above them).
+    let points = LightPoints::default().get() as f64;
+    assert!(stat("penumbra.rays_cast") <= points * samples + refine as f64 * refined);
     assert!(stat("penumbra.rays_cast") >= refine as f64 * refined);
     let receivers = render_scene(
         &scene,
@@ -407,7 +418,13 @@ fn ray_cast_samples_that_disagree_add_the_refinement_rays() {
         Exec::Native,
     )
     .receivers;
-    check_against_brute_force_rays(&scene, &native.visibility, &receivers, refine);
+    check_against_brute_force_rays(
+        &scene,
+        &native.visibility,
+        &receivers,
+        LightPoints::default(),
+        refine,
+    );
 }
 
 /// Three overlapping tilted plates at different heights (their shadows overlap) over the ground.
@@ -422,17 +439,19 @@ fn overlapping_plates() -> Scene {
 }
 
 /// Every pixel's visibility is the share of its light points a brute-force ray test finds unblocked
-/// (one point may flip on an edge within rounding); with `refine` > 0, of its 64 points and, where
+/// (one point may flip on an edge within rounding); with `refine` > 0, of its `n_points` points and, where
 /// those disagree, its `refine` refinement points too (a pixel of a part that evaluated Eq. 3, which
 /// has no refinement, may then differ: at most 2% of the pixels).
 fn check_against_brute_force_rays(
     scene: &Scene,
     visibility: &VisibilityImage,
     receivers: &sism::frame::Receivers,
+    n_points: LightPoints,
     refine: usize,
 ) {
     use glam::Vec3;
-    use sism::algorithms::sism::sampled::{light_point_offsets, refine_point_offsets, LIGHT_POINTS};
+    use sism::algorithms::sism::sampled::{light_point_offsets, refine_point_offsets};
+    let light_points = n_points.get();
     let tris: Vec<[Vec3; 3]> = scene.triangles().collect();
     let c = Vec3::from(scene.light.center);
     let r = scene.light.radius;
@@ -460,13 +479,13 @@ fn check_against_brute_force_rays(
         if *v < 0.0 {
             continue;
         }
-        let offsets = light_point_offsets(rcv.position - c, pixel as u32);
+        let offsets = light_point_offsets(rcv.position - c, pixel as u32, n_points);
         let mut lit = offsets
             .iter()
             .filter(|o| !blocked(rcv.position, c + **o * r))
             .count();
-        let mut points = LIGHT_POINTS;
-        if refine > 0 && lit > 0 && lit < LIGHT_POINTS {
+        let mut points = light_points;
+        if refine > 0 && lit > 0 && lit < light_points {
             let more = refine_point_offsets(rcv.position - c, pixel as u32, refine);
             lit += more
                 .iter()
@@ -476,7 +495,7 @@ fn check_against_brute_force_rays(
         }
         let expected = lit as f32 / points as f32;
         pixels += 1;
-        partial += usize::from(points > LIGHT_POINTS || (lit > 0 && lit < LIGHT_POINTS));
+        partial += usize::from(points > light_points || (lit > 0 && lit < light_points));
         let diff = (v - expected).abs();
         sum_diff += diff as f64;
         // One point may flip where it lies on an edge's boundary within rounding.

@@ -41,8 +41,8 @@ pub enum Composition {
     Additive,
     /// Connected components as independent occluders: `V = prod (1 - coverage_k)` (see `independent`).
     Independent,
-    /// Eq. 3's regions counted at 64 points of each sample's light disk; `V` = share of points no
-    /// occluder covers, so overlaps compose exactly (see `sampled`).
+    /// Eq. 3's regions counted at fixed points of each sample's light disk (128 by default); `V` =
+    /// share of points no occluder covers, so overlaps compose exactly (see `sampled`).
     Sampled,
 }
 
@@ -55,11 +55,13 @@ pub struct SismOptions {
     pub composition: Composition,
     /// Estimator of the light-point composition (`Composition::Sampled` only).
     pub light_point_estimator: sampled::LightPointEstimator,
+    /// Light points per sample (`Composition::Sampled` only).
+    pub light_points: sampled::LightPoints,
     /// `Composition::Sampled` with a BVH given: estimated Eq. 3 evaluations per sample at or above
     /// which a bin part measures what its samples' rays to their light points cost, and casts them
     /// where they are cheaper ([`sampled::RayFallback`]); 0: never.
     pub ray_evaluations: u32,
-    /// Rays a ray-cast sample adds where its first 64 disagree ([`sampled::RayFallback::refine_points`]).
+    /// Rays a ray-cast sample adds where its first rays (one per light point) disagree ([`sampled::RayFallback::refine_points`]).
     pub ray_refine_points: u32,
     /// Which probed parts cast rays ([`sampled::RayFallback::choice`]).
     pub ray_choice: sampled::RayChoice,
@@ -238,6 +240,7 @@ pub fn render_frame<'a>(
                     &occluders,
                     depth.as_deref().expect("computed above"),
                     options.light_point_estimator,
+                    options.light_points,
                     bvh.filter(|_| options.ray_evaluations > 0)
                         .map(|bvh| sampled::RayFallback {
                             bvh,
@@ -329,12 +332,26 @@ elsewhere; fraction: the lit share everywhere",
         sampled::LightPointEstimator::Fraction,
     ],
 );
+const LIGHT_POINTS: ChoiceParam<sampled::LightPoints> = ChoiceParam::new(
+    ParamSpec {
+        key: "light_points",
+        kind: ParamKind::Choice(&["64", "128", "256"]),
+        default: "128",
+        description: "points of each sample's light disk at which occluders are counted: more points, less \
+quantisation noise in the penumbrae, at a cost that grows more slowly than their number",
+    },
+    &[
+        sampled::LightPoints::P64,
+        sampled::LightPoints::P128,
+        sampled::LightPoints::P256,
+    ],
+);
 const RAY_EVALUATIONS: IntParam = IntParam::new(ParamSpec {
     key: "ray_evaluations",
     kind: ParamKind::Int { min: 0, max: 1 << 24 },
     default: RAY_EVALUATIONS_DEFAULT,
     description: "estimated Eq. 3 evaluations per sample at or above which a bin part probes what its \
-samples' shadow rays to their 64 light points cost, and casts them where they cost less than its Eq. 3 \
+samples' shadow rays to their light points cost, and casts them where they cost less than its Eq. 3 \
 work (cost-aware penumbra); 0: never",
 });
 
@@ -345,7 +362,7 @@ const RAY_REFINE_POINTS: IntParam = IntParam::new(ParamSpec {
         max: sampled::MAX_REFINE_POINTS as i64,
     },
     default: "192",
-    description: "shadow rays a ray-cast sample adds when its rays to its 64 light points disagree (some \
+    description: "shadow rays a ray-cast sample adds when its rays to its light points disagree (some \
 hidden, some not): the penumbra's noise is there; 0: none",
 });
 
@@ -364,11 +381,12 @@ cost less than its Eq. 3 work; all: every such part casts them (the rays alone, 
 const GRID_PARAMS: [ParamSpec; 3] = [SAMPLES_PER_COLUMN.spec(), SLICES.spec(), BIN_COLUMNS.spec()];
 
 /// The light-point composition's parameters: the grid's and the estimator.
-const SAMPLED_PARAMS: [ParamSpec; 7] = [
+const SAMPLED_PARAMS: [ParamSpec; 8] = [
     GRID_PARAMS[0],
     GRID_PARAMS[1],
     GRID_PARAMS[2],
     ESTIMATOR.spec(),
+    LIGHT_POINTS.spec(),
     RAY_EVALUATIONS.spec(),
     RAY_REFINE_POINTS.spec(),
     RAY_CHOICE.spec(),
@@ -405,11 +423,12 @@ occluder, `V = Π(1 − coverage)`: much less overlap darkening in foliage",
     run: |inputs, params, log| run(inputs, params, log, Composition::Independent),
 };
 
-/// `sism-sampled`: occluders counted at 64 light points per receiver.
+/// `sism-sampled`: occluders counted at light points of each receiver (128 by default).
 pub static SISM_SAMPLED: super::Algorithm = super::Algorithm {
     name: "sism-sampled",
     family: Family::Sism,
-    summary: "the same kernels, with each receiver counting occluders at 64 fixed points of its light disk \
+    summary:
+        "the same kernels, with each receiver counting occluders at fixed points of its light disk (128) \
 (Eq. 3's regions tested point by point) instead of adding coverages: overlaps compose exactly, no C = 0 \
 darkening",
     params: &SAMPLED_PARAMS,
@@ -432,6 +451,10 @@ impl SismOptions {
             light_point_estimator: match composition {
                 Composition::Sampled => params.get(&ESTIMATOR),
                 _ => sampled::LightPointEstimator::Hybrid,
+            },
+            light_points: match composition {
+                Composition::Sampled => params.get(&LIGHT_POINTS),
+                _ => sampled::LightPoints::default(),
             },
             ray_evaluations: match composition {
                 Composition::Sampled => params.get(&RAY_EVALUATIONS) as u32,

@@ -58,11 +58,11 @@ crate::declare_stats! {
         pub ray_samples: u64 => ("penumbra.ray_samples", "samples", "samples whose light points were ray-cast"),
         /// Ray-cast samples whose first light points disagreed (some hidden, some not), which then
         /// cast rays to `ray_refine_points` more points.
-        pub ray_samples_refined: u64 => ("penumbra.ray_samples_refined", "samples", "ray-cast samples partly lit at their 64 light points, which cast ray_refine_points more rays"),
+        pub ray_samples_refined: u64 => ("penumbra.ray_samples_refined", "samples", "ray-cast samples partly lit at their light points, which cast ray_refine_points more rays"),
         /// Shadow rays cast by the ray-cast samples (points below a receiver's horizon cast none).
         pub rays_cast: u64 => ("penumbra.rays_cast", "rays", "shadow rays cast by the ray-cast samples"),
         /// Ray-cast samples that cast no refinement because their first points all agreed.
-        pub ray_refinements_skipped: u64 => ("penumbra.ray_refinements_skipped", "samples", "ray-cast samples whose 64 light points all agreed (all lit or all hidden): no refinement rays"),
+        pub ray_refinements_skipped: u64 => ("penumbra.ray_refinements_skipped", "samples", "ray-cast samples whose light points all agreed (all lit or all hidden): no refinement rays"),
         /// Sample-edge evaluations of Eq. 3 (active lanes).
         pub samples_evaluated: u64 => ("penumbra.samples_evaluated", "evaluations", "Eq. 3 evaluations (active lanes)"),
         /// `samples_evaluated` per grid sample (mean; see [`PenumbraStats::finish`]).

@@ -8,7 +8,7 @@
 //! (the depth complexity seen from that point). Where partial occluders overlap (foliage), that
 //! mean exceeds the occluded fraction and penumbrae darken — on japanese-maple this is nearly all of
 //! SISM's error. The occluded fraction is the share of light points whose count is *non-zero*, so
-//! here each sample keeps the count at [`LIGHT_POINTS`] fixed points of its light disk instead of
+//! here each sample keeps the count at fixed points of its light disk ([`LightPoints`]: 128 by default) instead of
 //! their mean.
 //!
 //! # How
@@ -25,7 +25,7 @@
 //! The edge adds its integer weight (`Σ_k sign_k` of Eq. 3's sign rule, −2..2) to the counters of
 //! the points inside; the umbra's depth complexity at the centre is every point's starting count.
 //! By the same fan identity that makes Eq. 3 exact for one polygon, each point ends with the number
-//! of counted triangles covering it, so `V = #{points with count 0} / LIGHT_POINTS` (then the horizon
+//! of counted triangles covering it, so `V = #{points with count 0} / #points` (then the horizon
 //! term, as an independent occluder). The mean of the counts is exactly Eq. 4's sum in the limit of
 //! many points; the light-centre silhouette approximation (single point of projection) remains.
 //! Where every count is 0 or 1 nothing overlaps (as far as the points see) and Eq. 4's analytic
@@ -39,18 +39,19 @@
 //!
 //! The points are a Fibonacci (sunflower) spiral — evenly spread, no clumps — expressed in an
 //! orthonormal basis of each sample's light disk, rotated per pixel by one of 256 angles chosen by
-//! hashing the pixel index, so that the quantisation error of 64 points turns into fine noise
-//! instead of contour bands. Counters are 32-bit lanes, 64 per sample (256 bytes), in a buffer each
-//! host thread reuses across its bins. The points are stored in order of angle, four groups of 16
-//! each filling about a quarter of the disk; per (sample, edge) a group is skipped when the cone of
+//! hashing the pixel index, so that the quantisation error of the points turns into fine noise
+//! instead of contour bands. Counters are 32-bit lanes, one per point of each sample (512 bytes with
+//! 128 points), in a buffer each host thread reuses across its bins. The points are stored in order
+//! of angle, in groups of 16 each filling a sector of the disk (an eighth with 128 points); per
+//! (sample, edge) a group is skipped when the cone of
 //! the edge's region (from the centre through the clipped segment) misses the group's cone, or the
 //! group lies nearer the centre than the edge's line (palm 1600×1200: −15% penumbra, images
 //! unchanged).
 //!
 //! Cost: per (sample, edge) the vector part of Eq. 3 up to the clipped positions (shared with
-//! [`edge_term`](super::occlusion::edge_term)), then per lane 4 × (6 FMAs, 3 compares, a masked add)
-//! over the points the groups left. Measured: 1.7–2× the additive penumbra natively at 1600×1200,
-//! 2.6× on the modelled in-order chip (larrabee-24, japanese-maple 800×600).
+//! [`edge_term`](super::occlusion::edge_term)), then per lane and group of 16 points the group
+//! left (6 FMAs, 3 compares, a masked add). Measured with 64 points: 1.7–2× the additive penumbra
+//! natively at 1600×1200, 2.6× on the modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
 use rayon::prelude::*;
 use sism_simd::{Kernel, ScalarClass, Simd};
@@ -67,8 +68,39 @@ use crate::exec::{task_kind, Phase};
 use crate::frame::Receivers;
 use crate::vmath::{cross3, dot3};
 
-/// Points of the light disk at which each sample counts occluders (a multiple of 16).
-pub const LIGHT_POINTS: usize = 64;
+/// Most points of the light disk at which a sample counts occluders ([`LightPoints`]).
+pub const MAX_LIGHT_POINTS: usize = 256;
+
+/// Points of the light disk at which each sample counts occluders (parameter `light_points`: 64, 128
+/// or 256; default 128). The points' quantisation is most of `sism-sampled`'s error in foliage
+/// penumbrae (fine noise: the per-pixel rotation), so more points buy accuracy at a cost that grows
+/// more slowly than their number (finer groups: an edge's region skips more of them). Measured at
+/// 320×240 against a 1024-spp truth, reference and `sism-sampled` in one `sism bench` run per
+/// scene (2-core AMD EPYC, AVX-512), 64 → 128 → 256 points: palm MAE 0.00426 → 0.00313 → 0.00245,
+/// japanese-maple 0.0111 → 0.0088 → 0.0076, stanford-bunny 0.00143 → 0.00138 → 0.00133; the
+/// reference's time at equal MAE ÷ `sism-sampled`'s 1.18 → 2.05 → 1.39 (palm), 1.17 → 1.45 →
+/// 1.15 (maple), 1.85 → 2.33 → 2.05 (bunny): 128 is the default.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightPoints(usize);
+
+impl LightPoints {
+    /// 64 points.
+    pub const P64: LightPoints = LightPoints(64);
+    /// 128 points (the default).
+    pub const P128: LightPoints = LightPoints(128);
+    /// 256 points.
+    pub const P256: LightPoints = LightPoints(256);
+    /// The number of points (a multiple of 16, at most [`MAX_LIGHT_POINTS`]).
+    pub fn get(self) -> usize {
+        self.0
+    }
+}
+
+impl Default for LightPoints {
+    fn default() -> Self {
+        LightPoints::P128
+    }
+}
 
 /// How a sample's visibility is formed from its light-point counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -86,24 +118,29 @@ pub enum LightPointEstimator {
     Fraction,
 }
 
-/// Vectors of 16 points.
-const GROUPS: usize = LIGHT_POINTS / 16;
+/// Vectors of 16 points, at most.
+const MAX_GROUPS: usize = MAX_LIGHT_POINTS / 16;
 
 /// Rotations of the point set; a pixel's is chosen by hashing its index.
 const ROTATIONS: usize = 256;
 
-/// The light points in the unit disk, as `GROUPS` rows of 16 `x` and `y`, in order of angle: each
-/// group fills about a quarter of the disk, so rays cast to them in this order make compact vectors,
-/// and an edge whose region misses a group's quarter skips its 16 points.
+/// The light points in the unit disk, as `groups` rows of 16 `x` and `y`, in order of angle: each
+/// group fills a sector of the disk (a quarter with 64 points, a sixteenth with 256), so rays cast
+/// to them in this order make compact vectors, and an edge whose region misses a group's sector
+/// skips its 16 points.
 struct PointSet {
-    x: [[f32; 16]; GROUPS],
-    y: [[f32; 16]; GROUPS],
+    /// Points ([`LightPoints`]).
+    n: usize,
+    /// Their groups of 16: `n / 16`.
+    groups: usize,
+    x: [[f32; 16]; MAX_GROUPS],
+    y: [[f32; 16]; MAX_GROUPS],
     /// Per group, the cone (apex at the centre, less than half a turn) holding its points: unit
     /// boundary directions `b0`, then `b1` counterclockwise, `[b0x, b0y, b1x, b1y]`, opened by
     /// [`CONE_SLACK`] radians on each side so that no point lies within rounding of its boundary.
-    cone: [[f32; 4]; GROUPS],
+    cone: [[f32; 4]; MAX_GROUPS],
     /// Per group, the largest radius of its points (with a relative slack of 1e-6).
-    radius: [f32; GROUPS],
+    radius: [f32; MAX_GROUPS],
 }
 
 /// Angle (radians) by which a group's cone is opened beyond its outermost points.
@@ -126,14 +163,17 @@ fn spiral(n: usize, phase: f64) -> Vec<(f32, f32)> {
     points.into_iter().map(|(_, x, y)| (x, y)).collect()
 }
 
-/// The [`LIGHT_POINTS`] points ([`spiral`]) in groups of 16, with each group's cone and radius.
-fn point_set() -> PointSet {
-    let points = spiral(LIGHT_POINTS, 0.0);
+/// The `n` points ([`spiral`]) in groups of 16, with each group's cone and radius.
+fn point_set(n: LightPoints) -> PointSet {
+    let n = n.get();
+    let points = spiral(n, 0.0);
     let mut set = PointSet {
-        x: [[0.0; 16]; GROUPS],
-        y: [[0.0; 16]; GROUPS],
-        cone: [[0.0; 4]; GROUPS],
-        radius: [0.0; GROUPS],
+        n,
+        groups: n / 16,
+        x: [[0.0; 16]; MAX_GROUPS],
+        y: [[0.0; 16]; MAX_GROUPS],
+        cone: [[0.0; 4]; MAX_GROUPS],
+        radius: [0.0; MAX_GROUPS],
     };
     for (k, &(x, y)) in points.iter().enumerate() {
         set.x[k / 16][k % 16] = x;
@@ -141,7 +181,7 @@ fn point_set() -> PointSet {
         let r = &mut set.radius[k / 16];
         *r = r.max(x.hypot(y) * (1.0 + 1e-6));
     }
-    for g in 0..GROUPS {
+    for g in 0..set.groups {
         // Angles of the f32 points, so the cone holds the points the kernel tests.
         let angle = |l: usize| f64::from(set.y[g][l]).atan2(f64::from(set.x[g][l]));
         let (a0, a1) = (angle(0) - CONE_SLACK, angle(15) + CONE_SLACK);
@@ -165,7 +205,7 @@ fn rotation_table() -> (Vec<f32>, Vec<f32>) {
 }
 
 /// The cost-aware penumbra: a bin part whose quads would cost more than casting its samples' rays
-/// casts shadow rays to the same [`LIGHT_POINTS`] light points instead (beams over the scene's BVH,
+/// casts shadow rays to the same light points ([`LightPoints`]) instead (beams over the scene's BVH,
 /// `bvh::beam`), so SISM is never the slow path. A bin knows its quad count before any Eq. 3 runs,
 /// and per sample Eq. 3's light-point work grows with it; the rays' cost depends on the geometry
 /// around the receiver (a foliage receiver's 64 rays walk 20× the nodes of an open one's), so it is
@@ -182,7 +222,7 @@ pub struct RayFallback<'a> {
     /// Estimated Eq. 3 evaluations per sample at or above which a bin part probes its rays' cost
     /// (>= 1); it casts them where they are cheaper than its Eq. 3 work.
     pub min_evaluations: u32,
-    /// Rays a ray-cast sample adds (0..=[`MAX_REFINE_POINTS`]) when its first [`LIGHT_POINTS`] rays
+    /// Rays a ray-cast sample adds (0..=[`MAX_REFINE_POINTS`]) when its first rays (one per light point)
     /// disagree (some hidden, some not): the penumbra's variance is there, so that is where more
     /// rays lower the error; a sample whose first rays all agree keeps their answer.
     pub refine_points: u32,
@@ -231,12 +271,14 @@ pub const BUILD_EVALUATIONS_PER_TRIANGLE: u64 = 64;
 /// part (step `light_points`). `depth` is the umbra's depth complexity per sample (sorted order).
 /// With `rays`, parts whose estimated Eq. 3 work reaches `min_evaluations` per sample and exceeds
 /// their probed rays' cost cast rays instead of evaluating Eq. 3.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, then the composition's own settings
 pub fn visible_fraction(
     phase: &mut Phase,
     inputs: &StageInputs<'_>,
     occluders: &Occluders<'_>,
     depth: &[i32],
     estimator: LightPointEstimator,
+    light_points: LightPoints,
     rays: Option<RayFallback<'_>>,
     stats: &mut PenumbraStats,
 ) -> Vec<f32> {
@@ -244,7 +286,7 @@ pub fn visible_fraction(
     let lists = occluders.quads;
     // Samples no quad reaches are lit exactly when no triangle covers the light centre.
     let mut visible: Vec<f32> = depth.iter().map(|&d| if d == 0 { 1.0 } else { 0.0 }).collect();
-    let points = point_set();
+    let points = point_set(light_points);
     let rotations = rotation_table();
     let parts = bin_parts(grid, lists);
     // The cost-aware penumbra: each part's Eq. 3 evaluations estimated from a sparse subset of its
@@ -400,8 +442,8 @@ struct RayScratch {
 }
 
 /// Light-point offsets a [`RayScratch`] holds: the first points or the refinement's, whichever is more.
-const OFFSETS: usize = if LIGHT_POINTS > MAX_REFINE_POINTS {
-    LIGHT_POINTS
+const OFFSETS: usize = if MAX_LIGHT_POINTS > MAX_REFINE_POINTS {
+    MAX_LIGHT_POINTS
 } else {
     MAX_REFINE_POINTS
 };
@@ -421,7 +463,7 @@ impl LightPointRays<'_> {
     /// Visible fraction of sample `sample` (sorted order) by shadow rays to its light points: a point
     /// is lit when no triangle crosses the segment to it. A point below the receiver's tangent plane
     /// casts no ray and counts lit here, because the resolve's horizon term accounts for it (as for
-    /// Eq. 3's counts). First the [`LIGHT_POINTS`] points; when their rays disagree (some hidden,
+    /// Eq. 3's counts). First the light points; when their rays disagree (some hidden,
     /// some not) and a refinement is set, rays to its points too, and the fraction is over all of
     /// them (each set spreads its points evenly over the disk, one equal area each).
     #[inline(always)]
@@ -440,16 +482,17 @@ impl LightPointRays<'_> {
             return RaySample::default();
         };
         let q = counted::sub(s, rcv.position, c);
+        let n = self.points.n;
         let first = self.cast(
             s,
             &disk,
             q,
             pixel,
-            self.points.x.as_flattened(),
-            self.points.y.as_flattened(),
+            &self.points.x.as_flattened()[..n],
+            &self.points.y.as_flattened()[..n],
             scratch,
         );
-        let (mut lit, mut points) = (first.lit, LIGHT_POINTS as u32);
+        let (mut lit, mut points) = (first.lit, n as u32);
         let mut out = RaySample {
             visible: None,
             work: first.work,
@@ -458,7 +501,7 @@ impl LightPointRays<'_> {
             agreed: true,
         };
         // The first rays disagree: some hit, some did not (points below the horizon cast none).
-        let blocked = s.s_sub(LIGHT_POINTS as u32, first.lit);
+        let blocked = s.s_sub(n as u32, first.lit);
         if s.s_branch(blocked > 0 && blocked < first.rays) {
             out.agreed = false;
             if s.s_branch(!self.refine.0.is_empty()) {
@@ -681,7 +724,7 @@ impl Kernel for SampledBin<'_> {
         }
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);
         let bases = disk_bases(s, &self, positions);
-        // Occluder counts minus the centre's depth complexity, LIGHT_POINTS per sample.
+        // Occluder counts minus the centre's depth complexity, one per light point of each sample.
         // A buffer reused across the bins a host thread runs: fresh allocations of this size would
         // cost a page fault per 4 KiB (more than the counting itself).
         // Not in a counted frame: there the buffer's address must not depend on which host thread
@@ -693,7 +736,8 @@ impl Kernel for SampledBin<'_> {
             Vec::new()
         };
         counts.clear();
-        counts.resize(n_samples * LIGHT_POINTS, 0);
+        let n_points = self.points.n;
+        counts.resize(n_samples * n_points, 0);
         // Σ Eq. 3 terms per sample (Eq. 4's analytic coverage, less the depth complexity).
         let mut sums = match self.estimator {
             LightPointEstimator::Hybrid => vec![0f32; n_samples],
@@ -719,14 +763,14 @@ impl Kernel for SampledBin<'_> {
         // edge subtracted where the light-centre silhouette differs from the point's) counts as
         // occluded: measured closer to the reference on the shared scenes (stanford-bunny MAE 0.0015
         // against 0.0024 when counted lit).
-        let inv_points = 1.0 / LIGHT_POINTS as f32;
+        let inv_points = 1.0 / n_points as f32;
         for i in 0..n_samples {
             let depth = s.s_load(self.depth, i);
             let minus_depth = s.splat_i(-depth);
             let one_more = s.splat_i(s.s_sub(1, depth));
             let (mut lit, mut overlap) = (0, false);
-            for g in 0..GROUPS {
-                let c = s.load_i(&counts[i * LIGHT_POINTS + 16 * g..]);
+            for g in 0..self.points.groups {
+                let c = s.load_i(&counts[i * n_points + 16 * g..]);
                 lit += s.mask_popcnt(s.cmp_eq_i(c, minus_depth));
                 // Counts outside {0, 1}: overlapping occluders (or a negative count).
                 overlap |= s.mask_any(s.mask_or(s.cmp_lt_i(c, minus_depth), s.cmp_gt_i(c, one_more)));
@@ -843,8 +887,8 @@ fn add_edge_points<S: Simd>(
             cone_margin(s, elo),
             cone_margin(s, ehi),
         );
-        let mut reach = [0u16; GROUPS];
-        for (g, reach) in reach.iter_mut().enumerate() {
+        let mut reach = [0u16; MAX_GROUPS];
+        for (g, reach) in reach.iter_mut().enumerate().take(points.groups) {
             let cone = &points.cone[g];
             let (b0, b1) = (
                 [s.splat_f(cone[0]), s.splat_f(cone[1])],
@@ -905,8 +949,8 @@ fn add_edge_points<S: Simd>(
             s.scalar_op(ScalarClass::Alu);
             s.scalar_op(ScalarClass::Alu);
             s.scalar_op(ScalarClass::Branch);
-            let row = s.s_mul(at[lane] as usize, LIGHT_POINTS);
-            for (g, reach) in reach.iter().enumerate() {
+            let row = s.s_mul(at[lane] as usize, points.n);
+            for (g, reach) in reach.iter().enumerate().take(points.groups) {
                 if reach & (1 << lane) == 0 {
                     continue;
                 }
@@ -945,21 +989,21 @@ fn both_below<S: Simd>(s: S, a: S::F32, b: S::F32, ta: S::F32, tb: S::F32) -> si
 /// The light points of the sample at `q` (relative to the light centre, world units) shading
 /// `pixel`, as offsets from the light centre in light radii: light point `k` is at `c + r · out[k]`.
 /// A scalar mirror of the kernel's basis (same formulas; may differ in the last bits), for tests
-/// that ray-cast to the very points the kernel counts at.
-pub fn light_point_offsets(q: glam::Vec3, pixel: u32) -> Vec<glam::Vec3> {
-    let mut out = [glam::Vec3::ZERO; LIGHT_POINTS];
+/// that ray-cast to the very points the kernel counts at (`n` of them).
+pub fn light_point_offsets(q: glam::Vec3, pixel: u32, n: LightPoints) -> Vec<glam::Vec3> {
+    let mut out = [glam::Vec3::ZERO; MAX_LIGHT_POINTS];
     let (cos, sin) = rotation_table();
-    let p = point_set();
+    let p = point_set(n);
     light_points_into(
         sism_simd::Portable,
         q,
         pixel,
-        p.x.as_flattened(),
-        p.y.as_flattened(),
+        &p.x.as_flattened()[..p.n],
+        &p.y.as_flattened()[..p.n],
         (&cos, &sin),
-        &mut out,
+        &mut out[..p.n],
     );
-    out.to_vec()
+    out[..p.n].to_vec()
 }
 
 /// The `n` refinement points (`n` ≤ [`MAX_REFINE_POINTS`]) a ray-cast sample at `q` shading `pixel`
@@ -1017,23 +1061,30 @@ mod tests {
 
     #[test]
     fn points_fill_the_unit_disk_evenly() {
-        let p = point_set();
-        let (mut cx, mut cy, mut r2) = (0.0f64, 0.0f64, 0.0f64);
-        for g in 0..GROUPS {
-            for l in 0..16 {
-                let (x, y) = (p.x[g][l] as f64, p.y[g][l] as f64);
-                assert!(x * x + y * y < 1.0);
-                cx += x;
-                cy += y;
-                r2 += x * x + y * y;
+        for count in [LightPoints::P64, LightPoints::P128, LightPoints::P256] {
+            let p = point_set(count);
+            assert_eq!((p.n, p.groups), (count.get(), count.get() / 16));
+            let (mut cx, mut cy, mut r2) = (0.0f64, 0.0f64, 0.0f64);
+            for g in 0..p.groups {
+                for l in 0..16 {
+                    let (x, y) = (p.x[g][l] as f64, p.y[g][l] as f64);
+                    assert!(x * x + y * y < 1.0);
+                    // Every point inside its group's cone and radius (the skip tests rely on it).
+                    let [b0x, b0y, b1x, b1y] = p.cone[g].map(f64::from);
+                    assert!(b0x * y - b0y * x >= 0.0 && b1x * y - b1y * x <= 0.0, "group {g}");
+                    assert!((x * x + y * y).sqrt() <= f64::from(p.radius[g]));
+                    cx += x;
+                    cy += y;
+                    r2 += x * x + y * y;
+                }
             }
+            let n = p.n as f64;
+            // Centroid near the centre; mean squared radius of the uniform disk is 1/2.
+            assert!(
+                (cx / n).abs() < 0.02 && (cy / n).abs() < 0.02,
+                "centroid {cx} {cy}"
+            );
+            assert!((r2 / n - 0.5).abs() < 0.01, "mean r² {}", r2 / n);
         }
-        let n = LIGHT_POINTS as f64;
-        // Centroid near the centre; mean squared radius of the uniform disk is 1/2.
-        assert!(
-            (cx / n).abs() < 0.02 && (cy / n).abs() < 0.02,
-            "centroid {cx} {cy}"
-        );
-        assert!((r2 / n - 0.5).abs() < 0.01, "mean r² {}", r2 / n);
     }
 }
