@@ -565,7 +565,9 @@ pub fn write_report(out: &std::path::Path, report: &BenchReport, truth_picture: 
         _ => "a given image".into(),
     };
     r.paragraph(&format!(
-        "{} triangles; {} host threads, simd backend {}; truth: {truth}. Time: {} Error maps:          |visibility error| from black (0) through red to yellow ({HEATMAP_SCALE} and above), grey          where nothing is compared. Files beside this page: `bench.csv`, `bench.json`, `pareto.md`.",
+        "{} triangles; {} host threads, simd backend {}; truth: {truth}. Time: {} Error maps: \
+         |visibility error| from black (0) through red to yellow ({HEATMAP_SCALE} and above), grey \
+         where nothing is compared. Files beside this page: `bench.csv`, `bench.json`, `pareto.md`.",
         report.triangles, report.host_threads, report.simd_backend, report.timing
     ));
     r.figure("bench.png", "Median time against MAE, every row");
