@@ -57,7 +57,8 @@ pub struct SismOptions {
     pub light_point_estimator: sampled::LightPointEstimator,
     /// Light points per sample (`Composition::Sampled` only).
     pub light_points: sampled::LightPoints,
-    /// `Composition::Sampled` with a BVH given: estimated Eq. 3 evaluations per sample at or above
+    /// `Composition::Sampled` with a BVH given: estimated Eq. 3 work per sample, in 64-point
+    /// evaluations ([`sampled::LightPoints::evaluation_cost_eighths`]), at or above
     /// which a bin part measures what its samples' rays to their light points cost, and casts them
     /// where they are cheaper ([`sampled::RayFallback`]); 0: never.
     pub ray_evaluations: u32,
@@ -350,7 +351,7 @@ const RAY_EVALUATIONS: IntParam = IntParam::new(ParamSpec {
     key: "ray_evaluations",
     kind: ParamKind::Int { min: 0, max: 1 << 24 },
     default: RAY_EVALUATIONS_DEFAULT,
-    description: "estimated Eq. 3 evaluations per sample at or above which a bin part probes what its \
+    description: "estimated Eq. 3 work per sample (in 64-point evaluations) at or above which a bin part probes what its \
 samples' shadow rays to their light points cost, and casts them where they cost less than its Eq. 3 \
 work (cost-aware penumbra); 0: never",
 });
