@@ -19,10 +19,11 @@
 //! overlapping with `memory_parallelism` held at [`FIT_PARALLELISM`]), `stream_l2_cycles`,
 //! `stream_l3_cycles` and `stream_dram_cycles` (streaming loads over the same arrays: what a
 //! line costs once the prefetchers run ahead; the memory benchmarks' counted runs are replayed
-//! after a counted warm-up run, as their native runs are timed warm),
+//! after a counted warm-up run, as their native runs are timed warm), `stream_ramp_share` (loads
+//! of runs of 16 consecutive lines at random starts in DRAM: what a young stream's miss costs),
 //! `task_overhead_cycles` and `barrier_cycles` (empty tasks through the frame's own task runner on
 //! all host threads, as frames run them). The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
-//! gathers from L2 and DRAM, streaming stores) are not fitted: their residuals show how well
+//! gathers from L2 and DRAM, streaming stores, runs of 2, 4, 64 and 256 lines, random stores) are not fitted: their residuals show how well
 //! the fitted model carries over.
 //!
 //! Frames are never used for fitting: `sism validate` checks the fitted model on them.
@@ -75,6 +76,8 @@ pub enum Fits {
     StreamL3,
     /// `stream_dram_cycles`, by streaming loads over an array that lives in DRAM.
     StreamDram,
+    /// `stream_ramp_share`, by loads of short runs of consecutive lines at random starts in DRAM.
+    StreamRamp,
     /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
@@ -130,11 +133,15 @@ enum Kind {
     Compress {
         count: usize,
     },
-    /// `count` 16-lane loads, each of one random line of an array of the level's size, on four
-    /// independent accumulators (a prefetcher cannot follow them).
+    /// `count` 16-lane loads, each of one line of an array of the level's size, on four
+    /// independent accumulators: runs of `run` consecutive lines (ascending) at random starts. With
+    /// `run` 1 a prefetcher cannot follow them; longer runs show how soon it starts to.
     Random {
         level: Level,
         count: usize,
+        run: u32,
+        /// Stores (of 16 lanes, a whole line) instead of loads.
+        store: bool,
     },
     /// `passes` copies of an L1-resident array into another.
     Copy {
@@ -263,6 +270,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Random {
             level: Level::L2,
             count: 1 << 20,
+            run: 1,
+            store: false,
         },
     },
     Bench {
@@ -272,6 +281,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Random {
             level: Level::L3,
             count: 1 << 20,
+            run: 1,
+            store: false,
         },
     },
     Bench {
@@ -282,6 +293,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Random {
             level: Level::Dram,
             count: 1 << 21,
+            run: 1,
+            store: false,
         },
     },
     Bench {
@@ -403,6 +416,83 @@ pub const BENCHES: &[Bench] = &[
             level: Level::Dram,
             store: true,
             bytes: 64 << 20,
+        },
+    },
+    Bench {
+        name: "runs-dram-2",
+        what: "loads of runs of 2 consecutive lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 2,
+            store: false,
+        },
+    },
+    Bench {
+        name: "runs-dram-4",
+        what: "loads of runs of 4 consecutive lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 4,
+            store: false,
+        },
+    },
+    Bench {
+        name: "runs-dram-16",
+        what: "loads of runs of 16 consecutive lines at random starts in DRAM",
+        fits: Fits::StreamRamp,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 16,
+            store: false,
+        },
+    },
+    Bench {
+        name: "runs-dram-64",
+        what: "loads of runs of 64 consecutive lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 64,
+            store: false,
+        },
+    },
+    Bench {
+        name: "runs-dram-256",
+        what: "loads of runs of 256 consecutive lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 256,
+            store: false,
+        },
+    },
+    Bench {
+        name: "random-stores-dram",
+        what: "stores of whole random lines of an array in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 1,
+            store: true,
+        },
+    },
+    Bench {
+        name: "runs-l3-4",
+        what: "loads of runs of 4 consecutive lines at random starts in the shared cache",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::L3,
+            count: 1 << 20,
+            run: 4,
+            store: false,
         },
     },
 ];
@@ -601,6 +691,26 @@ impl Kernel for RandomK<'_> {
             }
         }
         s.reduce_add_f(s.add_f(s.add_f(a[0], a[1]), s.add_f(a[2], a[3])))
+    }
+}
+
+/// Stores of whole lines (16 lanes) at the lines `lines` of `table`.
+struct RandomStoreK<'a> {
+    table: &'a mut [f32],
+    lines: &'a [u32],
+}
+impl Kernel for RandomStoreK<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let mut v = s.splat_f(1.0);
+        let step = s.splat_f(0.5);
+        for k in 0..self.lines.len() {
+            let l = s.s_load(self.lines, k) as usize * 16;
+            s.store_f(&mut self.table[l..l + 16], v);
+            v = s.add_f(v, step);
+        }
+        s.reduce_add_f(v)
     }
 }
 
@@ -860,12 +970,35 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             });
             (ns, tasks)
         }
-        Kind::Random { level, count } => {
+        Kind::Random {
+            level,
+            count,
+            run,
+            store,
+        } => {
             let n = (level.bytes(m) / 4).max(1024) / 16 * 16;
-            let table = vec![1.0f32; n];
+            let mut table = vec![1.0f32; n];
             let mut st = 0x2545_f491_u64;
-            let lines: Vec<u32> = (0..count).map(|_| lcg(&mut st) % (n / 16) as u32).collect();
-            let run = |r: Option<&Recorder>| {
+            let (run, table_lines) = (run.max(1), (n / 16) as u32);
+            let starts = table_lines.saturating_sub(run).max(1);
+            let lines: Vec<u32> = (0..count.div_ceil(run as usize))
+                .flat_map(|_| {
+                    let start = lcg(&mut st) % starts;
+                    (start..start + run).map(move |l| l.min(table_lines - 1))
+                })
+                .take(count)
+                .collect();
+            let mut run = |r: Option<&Recorder>| {
+                if store {
+                    let k = RandomStoreK {
+                        table: &mut table,
+                        lines: &lines,
+                    };
+                    return match r {
+                        None => sism_simd::run_native(k),
+                        Some(r) => sism_simd::run_counting(r, k),
+                    };
+                }
                 let k = RandomK {
                     table: &table,
                     lines: &lines,
@@ -1074,6 +1207,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 }
                 Fits::StreamL3 => {}
                 Fits::StreamDram => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_dram_cycles = c),
+                Fits::StreamRamp => solve(&mut m, x, 0.0, 1.0, &|m, c| m.stream_ramp_share = c),
                 Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.barrier_cycles = c.round() as u32
                 }),
@@ -1104,6 +1238,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.stream_l2_cycles = (m.stream_l2_cycles * 1000.0).round() / 1000.0;
     m.stream_l3_cycles = (m.stream_l3_cycles * 1000.0).round() / 1000.0;
     m.stream_dram_cycles = (m.stream_dram_cycles * 1000.0).round() / 1000.0;
+    m.stream_ramp_share = (m.stream_ramp_share * 1000.0).round() / 1000.0;
     m.name = "host-calibrated".into();
     let rows = measured
         .iter()
@@ -1209,7 +1344,14 @@ mod tests {
                 store,
                 bytes: 1 << 20,
             },
-            Kind::Random { level, .. } => Kind::Random { level, count: 20_000 },
+            Kind::Random {
+                level, run, store, ..
+            } => Kind::Random {
+                level,
+                count: 20_000,
+                run,
+                store,
+            },
             Kind::Compress { .. } => Kind::Compress { count: 500 },
             Kind::Copy { .. } => Kind::Copy { passes: 100 },
             Kind::FreshPages { .. } => Kind::FreshPages { bytes: 4 << 20 },
@@ -1217,7 +1359,12 @@ mod tests {
         };
         let measured: Vec<Measured> = BENCHES
             .iter()
-            .filter(|b| !matches!(b.fits, Fits::Check | Fits::Dram | Fits::StreamDram))
+            .filter(|b| {
+                !matches!(
+                    b.fits,
+                    Fits::Check | Fits::Dram | Fits::StreamDram | Fits::StreamRamp
+                )
+            })
             .map(|b| {
                 let b = Bench {
                     kind: shrink(b.kind),

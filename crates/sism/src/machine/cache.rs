@@ -97,10 +97,10 @@ impl LineIds {
         };
         let e = &mut self.ids[(block as u64 + line % PAGE_LINES) as usize];
         if *e == NO_ID {
-            // Past 2^30 distinct lines (beyond any frame the records limits admit in practice) new
+            // Past 2^29 distinct lines (beyond any frame the records limits admit in practice) new
             // lines share the last id: the caches then see them as one line, never a panic.
             *e = self.next;
-            if self.next < (NO_ID >> 2) - 1 {
+            if self.next < (NO_ID >> 3) - 1 {
                 self.next += 1;
             }
         }

@@ -301,6 +301,8 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         stream_l2_cycles: 1.0,
         stream_l3_cycles: 2.0,
         stream_dram_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
+        // A young stream's misses (its first 4 KiB): starting point, fitted by `sism calibrate`.
+        stream_ramp_share: 0.6,
     }
 }
 

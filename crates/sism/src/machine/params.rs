@@ -191,7 +191,7 @@ pub fn scaled(m: &MachineConfig, p: &Param, factor: f64) -> Option<MachineConfig
 pub fn applies(m: &MachineConfig, p: &Param) -> bool {
     match p.name {
         "l3_ways" | "l3_latency" | "stream_l3_cycles" => m.l3_kb > 0,
-        "stream_l2_cycles" | "stream_dram_cycles" => m.prefetcher,
+        "stream_l2_cycles" | "stream_dram_cycles" | "stream_ramp_share" => m.prefetcher,
         "tlb_miss_cycles" => m.tlb_entries > 0,
         // Zero means "none": doubling nothing is nothing.
         "l3_kb" | "tlb_entries" | "task_overhead_cycles" => value(m, p) > 0.0,

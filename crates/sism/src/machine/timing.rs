@@ -41,8 +41,9 @@
 //!   task's last [`STREAMS`] stream heads continues that stream ([`LineMapper::map_each`]). When
 //!   such an access misses L1, the prefetcher has run ahead of it: it costs the streaming cost of
 //!   the level that served it (`stream_l2_cycles`, `stream_l3_cycles`, `stream_dram_cycles`, a
-//!   throughput, not divided by `memory_parallelism`) instead of that level's latency. Random
-//!   misses keep their latencies.
+//!   throughput, not divided by `memory_parallelism`) instead of that level's latency, once the
+//!   stream has moved by [`STREAM_RAMP`] lines; before that (a young stream) it costs
+//!   `stream_ramp_share` of the latency. Random misses keep their latencies.
 //! * **Hardware threads hide latency**: with `T` threads per core each running tasks like this one,
 //!   a task of `B` busy cycles (issue + atomics) and `S` stall cycles takes `max(B, (B + S) / T)`
 //!   of the core's time (the others issue while it waits), i.e. the exposed stall is
@@ -287,8 +288,11 @@ struct LineTally {
     /// Dirty lines the last level evicted (L2 without a shared cache, else the shared cache).
     writebacks: u64,
     /// Of the L2 hits, the L3 hits and the DRAM fills: those that continued a stream of the
-    /// task's lines ([`LineMapper::map`]'s stream bit), which a prefetcher covers.
+    /// task's lines past its first [`STREAM_RAMP`] ([`LineMapper::map`]'s stream bit), which a
+    /// prefetcher covers.
     streamed: [u64; 3],
+    /// The same for lines of a young stream (within its first [`STREAM_RAMP`] lines).
+    young: [u64; 3],
 }
 
 impl LineTally {
@@ -296,7 +300,9 @@ impl LineTally {
     #[inline]
     fn replay(&mut self, core: &mut Core, mut l3: Option<&mut Cache>, lines: &[u32]) {
         for &a in lines {
-            let (id, write, stream) = (a >> 2, a & 1 == 1, (a >> 1 & 1) as u64);
+            let (id, write) = (a >> 3, a & 1 == 1);
+            // An established stream's line, or a young one's.
+            let (stream, young) = ((a >> 2 & 1) as u64, (a >> 1 & 1) as u64);
             if core.l1.access(id, write).hit {
                 self.l1_hits += 1;
                 continue;
@@ -305,6 +311,7 @@ impl LineTally {
             if r.hit {
                 self.l2_hits += 1;
                 self.streamed[0] += stream;
+                self.young[0] += young;
                 continue;
             }
             self.l2_misses += 1;
@@ -313,11 +320,14 @@ impl LineTally {
                 Some(l3) => {
                     let r3 = l3.access(id, write);
                     self.l3_hits += r3.hit as u64;
-                    self.streamed[if r3.hit { 1 } else { 2 }] += stream;
+                    let level = if r3.hit { 1 } else { 2 };
+                    self.streamed[level] += stream;
+                    self.young[level] += young;
                     self.writebacks += r3.writeback as u64;
                 }
                 None => {
                     self.streamed[2] += stream;
+                    self.young[2] += young;
                     self.writebacks += r.writeback as u64;
                 }
             }
@@ -418,11 +428,24 @@ impl<'a> Machine<'a> {
         let paging = (tlb_misses as f64 * m.tlb_miss_cycles).ceil() as u64;
         // With a prefetcher, the misses that continue a stream cost their level's streaming
         // throughput; the others their latency.
-        let streamed = if m.prefetcher { tally.streamed } else { [0; 3] };
-        let latency = (tally.l1_hits.saturating_mul(l1_lat))
-            .saturating_add((tally.l2_hits - streamed[0]).saturating_mul(l2_lat))
-            .saturating_add((tally.l3_hits - streamed[1]).saturating_mul(m.l3_latency as u64))
-            .saturating_add((dram_misses - streamed[2]).saturating_mul(self.dram_miss));
+        // A young stream's misses pay `stream_ramp_share` of their latency (in f64 and rounded up:
+        // the share is not an integer).
+        let (streamed, young) = if m.prefetcher {
+            (tally.streamed, tally.young)
+        } else {
+            ([0; 3], [0; 3])
+        };
+        let share = m.stream_ramp_share;
+        let level = |hits: u64, k: usize, lat: u64| {
+            let random = hits - streamed[k] - young[k];
+            (random as f64 + young[k] as f64 * share) * lat as f64
+        };
+        let latency = (tally.l1_hits.saturating_mul(l1_lat)).saturating_add(
+            (level(tally.l2_hits, 0, l2_lat)
+                + level(tally.l3_hits, 1, m.l3_latency as u64)
+                + level(dram_misses, 2, self.dram_miss))
+            .ceil() as u64,
+        );
         let streaming = (streamed[0] as f64 * m.stream_l2_cycles
             + streamed[1] as f64 * m.stream_l3_cycles
             + streamed[2] as f64 * m.stream_dram_cycles)
@@ -528,6 +551,13 @@ pub const STREAMS: usize = 16;
 /// bytes) is followed, as a stride prefetcher does.
 pub const STREAM_REACH: u64 = 4;
 
+/// Lines a stream covers before the prefetcher has run far enough ahead of it: the lines it
+/// reaches within its first 64 lines (a 4 KiB page, within which hardware prefetchers train) cost
+/// `stream_ramp_share` of their level's latency, the later ones the streaming cost. Assumption,
+/// with the share fitted: on the project's Zen 4 host, runs of 2, 4, 16 and 64 consecutive lines at
+/// random starts in DRAM cost 72%, 70%, 63% and 57% of random lines a line, 256-line runs 43%.
+pub const STREAM_RAMP: u8 = 64;
+
 /// Chunks of line ids mapped ahead of the cache replay; with [`CHUNK_LINES`] per chunk, the
 /// pipeline holds at most a few MB whatever the records claim.
 const PIPELINE_DEPTH: usize = 16;
@@ -582,7 +612,7 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
     })
 }
 
-/// A frame's line streams decoded once into first-touch ids (`id << 2 | stream << 1 | is_write`, as
+/// A frame's line streams decoded once into first-touch ids (`id << 3 | stream << 2 | young << 1 | is_write`, as
 /// [`LineMapper::map`] gives them) with each task's pages, for re-timing the same records on many machines without decoding
 /// them again ([`simulate_decoded`]). Holds 4 bytes per line access.
 pub struct DecodedLines {
@@ -665,7 +695,8 @@ pub struct LineMapper {
 const LINES_PER_PAGE: u32 = (PAGE_BYTES / 64) as u32;
 
 impl LineMapper {
-    /// Decodes `task`'s line stream as `id << 2 | continues_a_stream << 1 | is_write`, calling `replay` with chunks of at
+    /// Decodes `task`'s line stream as `id << 3 | established_stream << 2 | young_stream << 1 |
+    /// is_write`, calling `replay` with chunks of at
     /// most [`CHUNK_LINES`] ids (`chunk` is the buffer); returns the task's pages.
     pub fn map(
         &mut self,
@@ -694,8 +725,9 @@ impl LineMapper {
     ///
     /// Streams are followed on addresses (first-touch ids make any first pass look sequential):
     /// the task's last [`STREAMS`] stream heads are kept, and an access within
-    /// [`STREAM_REACH`] lines of one of them, either way, continues that stream (bit 1 of its id
-    /// word) and moves its head; any other access starts a stream in place of the oldest. A
+    /// [`STREAM_REACH`] lines of one of them, either way, continues that stream and moves its
+    /// head (bit 1 of its id word while the stream has moved by fewer than [`STREAM_RAMP`] lines,
+    /// bit 2 after); any other access starts a stream in place of the oldest. A
     /// uniform shift of the addresses changes nothing; two buffers the allocator happened to
     /// place end to end can continue one stream across the seam, as a hardware prefetcher would.
     pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
@@ -710,6 +742,8 @@ impl LineMapper {
         let task_number = self.task;
         // Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
         let mut heads = [u64::MAX / 2; STREAMS];
+        // Lines each stream has moved by (saturating): young below `STREAM_RAMP`.
+        let mut moves = [0u8; STREAMS];
         let (mut oldest, mut last) = (0, 0);
         // A plain loop over the decoder (not a callback): the stream state stays in registers and
         // nothing is called per access.
@@ -724,6 +758,7 @@ impl LineMapper {
                     near |= (within(h) as u32) << k;
                 }
             }
+            // 0: no new line of a stream; 1: a young stream's; 2: an established stream's.
             let stream = if near != 0 {
                 // The stream found moves to the line; the same line again is no new line of its
                 // stream.
@@ -731,12 +766,21 @@ impl LineMapper {
                 last = k;
                 let moved = heads[k] != line;
                 heads[k] = line;
-                moved
+                let state = if !moved {
+                    0
+                } else if moves[k] < STREAM_RAMP {
+                    1
+                } else {
+                    2
+                };
+                moves[k] = moves[k].saturating_add(moved as u8);
+                state
             } else {
                 heads[oldest] = line;
+                moves[oldest] = 0;
                 last = oldest;
                 oldest = (oldest + 1) % STREAMS;
-                false
+                0
             };
             let before = self.ids.len();
             let id = self.ids.id(line);
@@ -752,7 +796,7 @@ impl LineMapper {
                 pages.distinct += (self.page_task[p] != task_number) as u64;
                 self.page_task[p] = task_number;
             }
-            each(id << 2 | (stream as u32) << 1 | write as u32);
+            each(id << 3 | stream << 1 | write as u32);
         }
         pages
     }
