@@ -727,7 +727,7 @@ impl LineMapper {
     /// the task's last [`STREAMS`] stream heads are kept, and an access within
     /// [`STREAM_REACH`] lines of one of them, either way, continues that stream and moves its
     /// head (bit 1 of its id word while the stream has moved by fewer than [`STREAM_RAMP`] lines,
-    /// bit 2 after); any other access starts a stream in place of the oldest. A
+    /// bit 2 after); any other access starts a stream in place of the least recently used one. A
     /// uniform shift of the addresses changes nothing; two buffers the allocator happened to
     /// place end to end can continue one stream across the seam, as a hardware prefetcher would.
     pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
@@ -744,7 +744,12 @@ impl LineMapper {
         let mut heads = [u64::MAX / 2; STREAMS];
         // Lines each stream has moved by (saturating): young below `STREAM_RAMP`.
         let mut moves = [0u8; STREAMS];
-        let (mut oldest, mut last) = (0, 0);
+        // The access count at each stream's last use: a new stream replaces the least recently
+        // used one (a prefetcher keeps the streams it is following; round-robin replacement would
+        // restart a busy stream every 16 stray accesses, young again).
+        let mut used = [0u64; STREAMS];
+        let mut clock = 0u64;
+        let mut last = 0;
         // A plain loop over the decoder (not a callback): the stream state stays in registers and
         // nothing is called per access.
         for (line, write) in task.lines.iter() {
@@ -764,6 +769,7 @@ impl LineMapper {
                 // stream.
                 let k = near.trailing_zeros() as usize;
                 last = k;
+                used[k] = clock;
                 let moved = heads[k] != line;
                 heads[k] = line;
                 let state = if !moved {
@@ -776,12 +782,19 @@ impl LineMapper {
                 moves[k] = moves[k].saturating_add(moved as u8);
                 state
             } else {
-                heads[oldest] = line;
-                moves[oldest] = 0;
-                last = oldest;
-                oldest = (oldest + 1) % STREAMS;
+                let mut victim = 0;
+                for k in 1..STREAMS {
+                    if used[k] < used[victim] {
+                        victim = k;
+                    }
+                }
+                heads[victim] = line;
+                moves[victim] = 0;
+                used[victim] = clock;
+                last = victim;
                 0
             };
+            clock += 1;
             let before = self.ids.len();
             let id = self.ids.id(line);
             // The first line of a page, touched first by a write: fresh memory.
