@@ -748,11 +748,11 @@ impl LineMapper {
         // used one (a prefetcher keeps the streams it is following; round-robin replacement would
         // restart a busy stream every 16 stray accesses, young again).
         let mut used = [0u64; STREAMS];
-        let mut clock = 0u64;
         let mut last = 0;
         // A plain loop over the decoder (not a callback): the stream state stays in registers and
         // nothing is called per access.
-        for (line, write) in task.lines.iter() {
+        for (clock, (line, write)) in task.lines.iter().enumerate() {
+            let clock = clock as u64;
             // The heads within reach (the line itself included), as a bit mask: a branch-free
             // loop the compiler vectorises, since the mapper does this for every access.
             let within = |h: u64| line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH;
@@ -794,7 +794,6 @@ impl LineMapper {
                 last = victim;
                 0
             };
-            clock += 1;
             let before = self.ids.len();
             let id = self.ids.id(line);
             // The first line of a page, touched first by a write: fresh memory.
