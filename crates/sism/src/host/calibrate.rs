@@ -699,6 +699,14 @@ impl Kernel for RandomK<'_> {
     }
 }
 
+/// Runs `k` natively (`r` = `None`, the timed run) or counted into `r`.
+fn run_on<K: Kernel>(r: Option<&Recorder>, k: K) -> K::Output {
+    match r {
+        None => sism_simd::run_native(k),
+        Some(r) => sism_simd::run_counting(r, k),
+    }
+}
+
 /// Stores of whole lines (16 lanes) at the lines `lines` of `table`.
 struct RandomStoreK<'a> {
     table: &'a mut [f32],
@@ -848,10 +856,7 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             // chains); the same kernel counted.
             fn alu<const C: usize>(iters: usize, r: Option<&Recorder>) -> f32 {
                 let k = AluK::<C> { iters, seed: 1.0 };
-                match r {
-                    None => sism_simd::run_native(k),
-                    Some(r) => sism_simd::run_counting(r, k),
-                }
+                run_on(r, k)
             }
             let f: fn(usize, Option<&Recorder>) -> f32 = match chains {
                 1 => alu::<1>,
@@ -999,19 +1004,13 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                         table: &mut table,
                         lines: &lines,
                     };
-                    return match r {
-                        None => sism_simd::run_native(k),
-                        Some(r) => sism_simd::run_counting(r, k),
-                    };
+                    return run_on(r, k);
                 }
                 let k = RandomK {
                     table: &table,
                     lines: &lines,
                 };
-                match r {
-                    None => sism_simd::run_native(k),
-                    Some(r) => sism_simd::run_counting(r, k),
-                }
+                run_on(r, k)
             };
             let ns = time(&mut || {
                 black_box(run(None));
@@ -1029,10 +1028,7 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 // Zeroed memory straight from the allocator: its pages are touched first here.
                 let mut data = vec![0i32; n];
                 let k = FreshPagesK { data: &mut data };
-                match r {
-                    None => sism_simd::run_native(k),
-                    Some(r) => sism_simd::run_counting(r, k),
-                }
+                run_on(r, k)
             };
             let ns = time(&mut || {
                 black_box(run(None));

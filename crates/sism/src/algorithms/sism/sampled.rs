@@ -105,12 +105,16 @@ impl LightPoints {
     /// because an edge skips the groups whose sector its region misses.
     pub fn evaluation_cost_eighths(self) -> u64 {
         match self.0 {
-            0..=64 => 8,
+            0..=64 => EIGHTHS,
             65..=128 => 11,
             _ => 16,
         }
     }
 }
+
+/// Eighths in a 64-point evaluation: the cost-aware penumbra counts in eighths, so that its integer
+/// estimates carry [`LightPoints::evaluation_cost_eighths`] exactly.
+const EIGHTHS: u64 = 8;
 
 impl Default for LightPoints {
     fn default() -> Self {
@@ -323,12 +327,12 @@ pub fn visible_fraction(
     if let Some(r) = rays {
         // Costs in eighths of a 64-point evaluation (see `LightPoints::evaluation_cost_eighths`).
         let eval_cost = light_points.evaluation_cost_eighths();
-        let threshold = 8 * r.min_evaluations.max(1) as u64;
+        let threshold = EIGHTHS * r.min_evaluations.max(1) as u64;
         let candidates: Vec<usize> = (0..parts.len())
             .filter(|&k| {
                 // At most one evaluation per quad and sample, plus each quad's own cost.
                 let (quads, n) = (lists.of(parts[k].bin).len() as u64, parts[k].samples.len() as u64);
-                quads * (n * eval_cost + 8 * QUAD_EVALUATIONS) >= threshold * n
+                quads * (n * eval_cost + EIGHTHS * QUAD_EVALUATIONS) >= threshold * n
             })
             .collect();
         let estimates = phase.run_par(
@@ -352,7 +356,7 @@ pub fn visible_fraction(
             }
         }
         // The BVH is built only if the candidates' work beyond the threshold could pay for it.
-        let pays = saved >= 8 * BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64;
+        let pays = saved >= EIGHTHS * BUILD_EVALUATIONS_PER_TRIANGLE * r.unbuilt_triangles as u64;
         if !probed.is_empty() && (pays || r.choice == RayChoice::All) {
             let tracer = LightPointRays {
                 bvh: (r.bvh)(),
@@ -377,7 +381,8 @@ pub fn visible_fraction(
             for (&(k, estimate), &(beam_work, n_probed)) in probed.iter().zip(&work) {
                 stats.ray_probe_work += beam_work;
                 let n = parts[k].samples.len() as f64;
-                let ray_cost = beam_work as f64 / n_probed.max(1) as f64 * n * EVALUATIONS_PER_BEAM_OP * 8.0;
+                let ray_cost =
+                    beam_work as f64 / n_probed.max(1) as f64 * n * EVALUATIONS_PER_BEAM_OP * EIGHTHS as f64;
                 cast[k] = r.choice == RayChoice::All || ray_cost < estimate as f64;
             }
             ray_tracer = cast.contains(&true).then_some(tracer);
@@ -643,7 +648,7 @@ impl Kernel for EvaluationEstimate<'_> {
         }
         s.end_task();
         wedge.evaluated * ESTIMATE_STRIDE as u64 * self.eval_cost
-            + 8 * QUAD_EVALUATIONS * self.quads.len() as u64
+            + EIGHTHS * QUAD_EVALUATIONS * self.quads.len() as u64
     }
 }
 
