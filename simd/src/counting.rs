@@ -29,19 +29,21 @@ struct State {
     epoch: u64,
     /// Largest depth produced in the current epoch, relative to its start.
     top: u64,
-    /// Retirement depths of the last [`WINDOW`] vector operations (a ring; `issued` mod
-    /// [`WINDOW`] is the oldest): an operation enters the window only when the one [`WINDOW`]
-    /// before it has retired. Retirement is in order: an operation retires when it and every
+    /// Retirement depths of the last [`WINDOW`] vector and counted scalar operations (a ring;
+    /// `issued` mod [`WINDOW`] is the oldest): an operation enters the window only when the one
+    /// [`WINDOW`] before it has retired. Retirement is in order: an operation retires when it and every
     /// earlier one have completed.
     window: Box<[u64; WINDOW]>,
     /// Retirement depth of the latest operation (the running maximum of completions).
     retired: u64,
-    /// Vector operations issued (indexes the window ring).
+    /// Vector and counted scalar operations issued (indexes the window ring).
     issued: usize,
     /// The depths of recent scalar results, direct-mapped by their [`crate::ChainKey`]: (key,
     /// epoch-tagged depth). A value not found (never produced in this epoch, or evicted by another
     /// key in its slot) is ready at the epoch's start.
     scalars: Box<[(u64, u64); SCALAR_SLOTS]>,
+    /// The branch predictor model: each task starts it untrained.
+    predictor: crate::branch::BranchPredictor,
 }
 
 /// Slots of [`State::scalars`]: the scalar results whose depth a task remembers.
@@ -53,11 +55,12 @@ fn scalar_slot(key: u64) -> usize {
     (key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 54) as usize
 }
 
-/// The nominal out-of-order window, in vector operations: an operation cannot start before the
-/// one this many before it has retired (in order), which frees its place. Zen 4's and Ice Lake's
-/// reorder buffers hold 320 and 352 instructions; the kernels' vector operations come with about
-/// as many other instructions (loop control, addresses, mask-register and scalar work), hence 128
-/// vector operations (an assumption, stated; not fitted). With it a record's critical path is the
+/// The nominal out-of-order window, in vector and counted scalar operations (those with a chain:
+/// arithmetic, divides, conversions): an operation cannot start before the one this many before it
+/// has retired (in order), which frees its place. Zen 4's and Ice Lake's reorder buffers hold 320
+/// and 352 instructions; the kernels' counted operations come with about as many other
+/// instructions (loop control, addresses, loads, mask-register moves), hence 128 operations (an
+/// assumption, stated; not fitted). With it a record's critical path is the
 /// time a core of unbounded issue width but this window would take: independent chains overlap
 /// only as far as the window reaches (the instruction-window model of Sniper, Carlson et al. 2014).
 pub const WINDOW: usize = 128;
@@ -82,6 +85,7 @@ impl State {
     /// Starts a new epoch: depths restart at 0 and the window is empty.
     fn start_epoch(&mut self) {
         self.epoch = next_epoch();
+        self.predictor.start_task();
         self.top = 0;
         self.retired = 0;
         self.window.fill(0);
@@ -155,6 +159,7 @@ impl Recorder {
                 done: Vec::new(),
                 epoch: next_epoch(),
                 scalars: Box::new([(0, 0); SCALAR_SLOTS]),
+                predictor: Default::default(),
                 top: 0,
                 window: Box::new([0; WINDOW]),
                 retired: 0,
@@ -603,8 +608,14 @@ impl<B: Simd> Simd for Counting<'_, B> {
     }
     #[inline(always)]
     fn scalar_chain(self, latency: u64, a: Option<u64>, b: Option<u64>, out: Option<u64>) {
+        // A scalar operation takes its place in the window as a vector one does: scalar code's
+        // independent chains (one triangle's, the next one's) overlap only as far as it reaches.
         self.rec.with(|st| {
-            let d = st.scalar_depth(a).max(st.scalar_depth(b)) + latency;
+            let slot = st.issued % WINDOW;
+            let d = st.scalar_depth(a).max(st.scalar_depth(b)).max(st.window[slot]) + latency;
+            st.retired = st.retired.max(d);
+            st.window[slot] = st.retired;
+            st.issued += 1;
             st.top = st.top.max(d);
             st.set_scalar(out, d);
         })
@@ -984,6 +995,15 @@ impl<B: Simd> Simd for Counting<'_, B> {
             crate::ScalarClass::Div => st.c.scalar_div += 1,
             crate::ScalarClass::Branch => st.c.scalar_branch += 1,
             crate::ScalarClass::Mem => st.c.scalar_mem += 1,
+        })
+    }
+    #[inline(always)]
+    fn branch_outcome(self, site: &'static core::panic::Location<'static>, taken: bool) {
+        let key = crate::branch::site_key(site);
+        self.rec.with(|st| {
+            if st.predictor.observe(key, taken) {
+                st.c.branch_mispredicts += 1;
+            }
         })
     }
     #[inline(always)]

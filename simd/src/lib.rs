@@ -79,6 +79,7 @@
 #![warn(missing_docs)]
 
 pub mod alloc;
+pub mod branch;
 mod common;
 mod counting;
 mod dispatch;

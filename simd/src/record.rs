@@ -105,6 +105,9 @@ counters! {
     /// cycles ([`crate::latency`]), recorded as the task executes (each result is as
     /// deep as its deepest input plus its latency). Summed over tasks when records are merged.
     critical_path,
+    /// Counted conditional branches (`s_branch`, `s_lt`, `s_le`) that the counting context's
+    /// branch predictor model ([`crate::branch`]) mispredicted: an event, not an instruction.
+    branch_mispredicts,
 }
 
 impl Counters {
@@ -165,8 +168,8 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 }
 
 const MAGIC: u8 = 0x5A;
-// Version 2: `critical_path` and the counted scalar classes.
-const VERSION: u8 = 2;
+// Version 2: `critical_path` and the counted scalar classes. Version 3: `branch_mispredicts`.
+const VERSION: u8 = 3;
 
 impl TaskRecord {
     /// Compact binary form: magic, version, then varints (kind, every

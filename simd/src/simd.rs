@@ -547,6 +547,14 @@ pub trait Simd: Copy {
     fn scalar_chain(self, latency: u64, a: Option<u64>, b: Option<u64>, out: Option<u64>) {
         let _ = (latency, a, b, out);
     }
+    /// Under the counting context: the conditional branch at source location `site` went
+    /// `taken`; the branch predictor model ([`crate::branch`]) counts a misprediction when it
+    /// guessed wrong. A no-op natively. [`Simd::s_branch`], [`Simd::s_lt`] and [`Simd::s_le`] call
+    /// it with their caller's location.
+    #[inline(always)]
+    fn branch_outcome(self, site: &'static core::panic::Location<'static>, taken: bool) {
+        let _ = (site, taken);
+    }
     /// Count one scalar operation of `class` executed by the kernel (a no-op natively). Kernels
     /// call the counted operations below ([`Simd::s_add`], [`Simd::s_lt`], [`Simd::s_load`], ...),
     /// which execute the operation and count it here.
@@ -621,22 +629,31 @@ pub trait Simd: Copy {
         self.scalar_chain(latency, x.chain_key(), None, r.chain_key());
         r
     }
-    /// Scalar comparison feeding a branch: `a < b` ([`ScalarClass::Branch`]).
+    /// Scalar comparison feeding a branch: `a < b` ([`ScalarClass::Branch`]; its outcome is
+    /// predicted at the caller's site, [`Simd::branch_outcome`]).
     #[inline(always)]
+    #[track_caller]
     fn s_lt<T: PartialOrd>(self, a: T, b: T) -> bool {
         self.scalar_op(ScalarClass::Branch);
-        a < b
+        let c = a < b;
+        self.branch_outcome(core::panic::Location::caller(), c);
+        c
     }
-    /// Scalar `a <= b` ([`ScalarClass::Branch`]).
+    /// Scalar `a <= b` ([`ScalarClass::Branch`], predicted at the caller's site).
     #[inline(always)]
+    #[track_caller]
     fn s_le<T: PartialOrd>(self, a: T, b: T) -> bool {
         self.scalar_op(ScalarClass::Branch);
-        a <= b
+        let c = a <= b;
+        self.branch_outcome(core::panic::Location::caller(), c);
+        c
     }
-    /// A branch on `c` ([`ScalarClass::Branch`]): `c`.
+    /// A branch on `c` ([`ScalarClass::Branch`], predicted at the caller's site): `c`.
     #[inline(always)]
+    #[track_caller]
     fn s_branch(self, c: bool) -> bool {
         self.scalar_op(ScalarClass::Branch);
+        self.branch_outcome(core::panic::Location::caller(), c);
         c
     }
     /// Scalar load of `data[i]` ([`ScalarClass::Mem`], its line in the task's stream).

@@ -78,6 +78,8 @@ pub enum Fits {
     StreamDram,
     /// `stream_ramp_share`, by loads of short runs of consecutive lines at random starts in DRAM.
     StreamRamp,
+    /// `mispredict_cycles`, by a branch on random data (half its outcomes mispredicted).
+    Mispredict,
     /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
@@ -142,6 +144,12 @@ enum Kind {
         run: u32,
         /// Stores (of 16 lanes, a whole line) instead of loads.
         store: bool,
+    },
+    /// `count` branches on the bytes of an L1-resident array: random outcomes (`period` 0) or a
+    /// pattern repeating every `period` outcomes.
+    Branch {
+        count: usize,
+        period: usize,
     },
     /// `passes` copies of an L1-resident array into another.
     Copy {
@@ -234,6 +242,15 @@ pub const BENCHES: &[Bench] = &[
         what: "scalar f32 div and sqrt, 4 independent chains",
         fits: Fits::ScalarDivide,
         kind: Kind::ScalarDivide { iters: 200_000 },
+    },
+    Bench {
+        name: "branch-random",
+        what: "a branch on random bytes (its two sides a few scalar operations)",
+        fits: Fits::Mispredict,
+        kind: Kind::Branch {
+            count: 1 << 20,
+            period: 0,
+        },
     },
     Bench {
         name: "gather-l1-16",
@@ -406,6 +423,15 @@ pub const BENCHES: &[Bench] = &[
             lines: 16,
             scatter: false,
             count: 50_000,
+        },
+    },
+    Bench {
+        name: "branch-pattern-6",
+        what: "the same branch on a pattern repeating every 6 outcomes (learnt: few mispredictions)",
+        fits: Fits::Check,
+        kind: Kind::Branch {
+            count: 1 << 20,
+            period: 6,
         },
     },
     Bench {
@@ -655,6 +681,50 @@ impl Kernel for ScalarDivK {
     }
 }
 
+/// A counted branch on each byte of `outcomes` (non-zero: taken). The taken side goes through
+/// `black_box`, so the compiler keeps a real branch instead of a conditional move.
+struct BranchK<'a> {
+    outcomes: &'a [u8],
+}
+impl Kernel for BranchK<'_> {
+    type Output = u32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> u32 {
+        let mut acc = 1u32;
+        for i in 0..self.outcomes.len() {
+            if s.s_branch(s.s_load(self.outcomes, i) != 0) {
+                acc = black_box(acc.wrapping_mul(3));
+            } else {
+                acc = acc.rotate_left(5) ^ 0x55;
+            }
+            // The side's operation or two, and the loop's increment and branch.
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Alu);
+            s.scalar_op(ScalarClass::Branch);
+        }
+        acc
+    }
+}
+
+/// `count` branch outcomes: random bytes (xorshift) for `period` 0, else the first `period` of a
+/// fixed irregular sequence, repeated.
+fn branch_outcomes(count: usize, period: usize) -> Vec<u8> {
+    const PATTERN: [u8; 16] = [1, 1, 0, 1, 0, 0, 1, 0, 1, 1, 1, 0, 0, 1, 0, 0];
+    let mut x = 0x9e37_79b9_u32;
+    (0..count)
+        .map(|i| {
+            if period == 0 {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                (x >> 7 & 1) as u8
+            } else {
+                PATTERN[i % period.min(PATTERN.len())]
+            }
+        })
+        .collect()
+}
+
 struct GatherK<'a> {
     table: &'a mut [f32],
     idx: &'a [i32],
@@ -897,6 +967,17 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 sism_simd::run_counting(r, ScalarDivK { iters });
             }),
         ),
+        Kind::Branch { count, period } => {
+            let outcomes = branch_outcomes(count, period);
+            (
+                time(&mut || {
+                    black_box(sism_simd::run_native(BranchK { outcomes: &outcomes }));
+                }),
+                counted(&mut |r| {
+                    sism_simd::run_counting(r, BranchK { outcomes: &outcomes });
+                }),
+            )
+        }
         Kind::Gather {
             table_kb,
             lines,
@@ -1209,6 +1290,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::StreamL3 => {}
                 Fits::StreamDram => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_dram_cycles = c),
                 Fits::StreamRamp => solve(&mut m, x, 0.0, 1.0, &|m, c| m.stream_ramp_share = c),
+                Fits::Mispredict => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.mispredict_cycles = c),
                 Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.barrier_cycles = c.round() as u32
                 }),
@@ -1240,6 +1322,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.stream_l3_cycles = (m.stream_l3_cycles * 1000.0).round() / 1000.0;
     m.stream_dram_cycles = (m.stream_dram_cycles * 1000.0).round() / 1000.0;
     m.stream_ramp_share = (m.stream_ramp_share * 1000.0).round() / 1000.0;
+    m.mispredict_cycles = (m.mispredict_cycles * 100.0).round() / 100.0;
     m.name = "host-calibrated".into();
     let rows = measured
         .iter()
@@ -1322,12 +1405,17 @@ mod tests {
         truth.stream_l3_cycles = 3.0;
         truth.task_overhead_cycles = 1500.0;
         truth.barrier_cycles = 8000;
+        truth.mispredict_cycles = 15.0;
         // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
         let shrink = |k: Kind| match k {
             Kind::Alu { chains, .. } => Kind::Alu { iters: 2000, chains },
             Kind::ScalarChain { .. } => Kind::ScalarChain { iters: 5000 },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
             Kind::ScalarDivide { .. } => Kind::ScalarDivide { iters: 2000 },
+            Kind::Branch { period, .. } => Kind::Branch {
+                count: 20_000,
+                period,
+            },
             Kind::Gather {
                 table_kb,
                 lines,
@@ -1390,8 +1478,15 @@ mod tests {
         start.stream_l3_cycles = 0.5;
         start.task_overhead_cycles = 0.0;
         start.barrier_cycles = 0;
+        start.mispredict_cycles = 1.0;
         let c = fit(&start, &measured).config;
         let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
+        let near_abs = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+        assert!(
+            near_abs(c.mispredict_cycles, 15.0, 0.3),
+            "mispredict {}",
+            c.mispredict_cycles
+        );
         assert!(near(c.vector_cycles, 0.7, 0.02), "vector {}", c.vector_cycles);
         assert!(
             near(c.latency_scale, 0.825, 0.02),

@@ -303,6 +303,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         stream_dram_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
         // A young stream's misses (its first 4 KiB): starting point, fitted by `sism calibrate`.
         stream_ramp_share: 0.6,
+        // A mispredicted branch: starting point (Zen 4's typical penalty, AMD's optimisation
+        // guide), fitted by `sism calibrate` on a branch on random data.
+        mispredict_cycles: 13.0,
     }
 }
 

@@ -206,17 +206,20 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         .saturating_add(c.scalar_alu)
         .saturating_add(c.scalar_branch)
         .saturating_add(c.scalar_mem);
-    let scalar = (scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64
-        + c.scalar_div as f64 * m.scalar_div_cycles)
-        .ceil();
+    let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
+    let scalar_div = c.scalar_div as f64 * m.scalar_div_cycles;
     let issue = if m.separate_ports {
-        // Out of order: dependent operations wait for each other, so the task takes at least its
-        // critical path, however wide the issue.
+        // Out of order: the divider works beside the scalar ALUs, and dependent operations wait
+        // for each other, so the task takes at least its critical path, however wide the issue.
+        // A mispredicted branch refills the pipeline: nothing overlaps it.
         (((alu + compress) / vip).ceil() + gathers)
             .max((mem / vip).ceil())
-            .max(scalar)
+            .max(scalar_alu.max(scalar_div).ceil())
             .max(chain_cycles(c, m) as f64)
+            + mispredict_cycles(c, m) as f64
     } else {
+        // In order: the divider blocks the scalar pipe.
+        let scalar = (scalar_alu + scalar_div).ceil();
         (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
     };
     let atomics = c
@@ -230,6 +233,12 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
 /// The task's critical path in this machine's cycles (`critical_path × latency_scale`, rounded up).
 pub fn chain_cycles(c: &Counters, m: &MachineConfig) -> u64 {
     (c.critical_path as f64 * m.latency_scale).ceil() as u64
+}
+
+/// The task's mispredicted branches in this machine's cycles (`branch_mispredicts ×
+/// mispredict_cycles`, rounded up).
+pub fn mispredict_cycles(c: &Counters, m: &MachineConfig) -> u64 {
+    (c.branch_mispredicts as f64 * m.mispredict_cycles).ceil() as u64
 }
 
 /// The exposed part of `stall` for a task of `busy` cycles on a core of `threads` threads.
@@ -402,7 +411,11 @@ impl<'a> Machine<'a> {
         let issue = if m.separate_ports {
             issue
         } else {
-            let wait = chain_cycles(counters, m).saturating_sub(issue);
+            // A mispredicted branch stalls this thread like a chain (Larrabee's threads issue in
+            // turn, so the others fill the refill).
+            let wait = chain_cycles(counters, m)
+                .saturating_sub(issue)
+                .saturating_add(mispredict_cycles(counters, m));
             issue.saturating_add(exposed_stall(
                 wait,
                 issue.saturating_add(atomics),
