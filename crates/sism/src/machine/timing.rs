@@ -17,8 +17,12 @@
 //!   per counted scalar divide or square root.
 //!   Per class the slot is scaled by a real cost (`vector_cycles`, `load_store_cycles`,
 //!   `compress_cycles`, `scalar_cycles`, all 1 on Larrabee), and a gather or scatter costs at least
-//!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores,
-//!   and scalar work issue on their own ports: `max(vector ALU, load/store, scalar)`.
+//!   `gather_cycles`. With `separate_ports` (an out-of-order host) vector ALU work, loads and stores
+//!   (vector and scalar, each at `load_store_cycles`), scalar work and the scalar divider issue on
+//!   their own ports: `max(vector ALU, load/store, scalar, divider)`.
+//! * **Branches**: each counted conditional branch the counting context's predictor model missed
+//!   (`branch_mispredicts`) costs `mispredict_cycles`: added to the issue out of order (nothing
+//!   overlaps a refill), a stall the core's other threads hide in order (as a chain's, below).
 //! * **Dependency chains**: every record carries its task's critical path (the longest chain of
 //!   dependent vector operations, recorded as the task ran, in nominal latency cycles), which
 //!   `latency_scale` turns into cycles. An out-of-order core (`separate_ports`) spends on a task at
@@ -204,11 +208,13 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         .scalar
         .saturating_add(c.mask)
         .saturating_add(c.scalar_alu)
-        .saturating_add(c.scalar_branch)
-        .saturating_add(c.scalar_mem);
-    let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
+        .saturating_add(c.scalar_branch);
     let scalar_div = c.scalar_div as f64 * m.scalar_div_cycles;
     let issue = if m.separate_ports {
+        // Out of order: a scalar load or store takes a load/store port's slot, as a vector one
+        // does, not a scalar ALU's.
+        let mem = mem + c.scalar_mem as f64 * m.load_store_cycles;
+        let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
         // Out of order: the divider works beside the scalar ALUs, and dependent operations wait
         // for each other, so the task takes at least its critical path, however wide the issue.
         // A mispredicted branch refills the pipeline: nothing overlaps it.
@@ -218,7 +224,9 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
             .max(chain_cycles(c, m) as f64)
             + mispredict_cycles(c, m) as f64
     } else {
-        // In order: the divider blocks the scalar pipe.
+        // In order: scalar loads and stores go down the scalar pipe, and the divider blocks it.
+        let scalar_ops = scalar_ops.saturating_add(c.scalar_mem);
+        let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
         let scalar = (scalar_alu + scalar_div).ceil();
         (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
     };
