@@ -171,6 +171,15 @@ impl MachineReport {
                     &format!("{what}: active lanes per vector instruction / 16"),
                 )
                 .stat(
+                    &key("branch_mispredicts"),
+                    p.counters.branch_mispredicts as f64,
+                    "branches",
+                    &format!(
+                        "{what}: counted branches the predictor model missed, {} cycles each",
+                        c.mispredict_cycles
+                    ),
+                )
+                .stat(
                     &key("line_accesses"),
                     p.memory.accesses as f64,
                     "accesses",
