@@ -130,6 +130,20 @@ impl State {
         }
     }
 
+    /// Issues one operation whose inputs are ready at `ready` (relative to the epoch's start) and
+    /// whose result comes `latency` later: it waits for the operation [`WINDOW`] before it to
+    /// retire, retires in order, and may deepen the task's path. Returns the result's depth.
+    #[inline(always)]
+    fn issue(&mut self, ready: u64, latency: u64) -> u64 {
+        let slot = self.issued % WINDOW;
+        let depth = ready.max(self.window[slot]) + latency;
+        self.retired = self.retired.max(depth);
+        self.window[slot] = self.retired;
+        self.issued += 1;
+        self.top = self.top.max(depth);
+        depth
+    }
+
     /// Appends `line` to the task's stream.
     #[inline(always)]
     fn push_line(&mut self, line: u64, write: bool) {
@@ -418,12 +432,7 @@ impl<'r, B: Simd> Counting<'r, B> {
             c.vector_ops += 1;
             c.active_lanes += lanes as u64;
             c.masked_ops += masked as u64;
-            let slot = st.issued % WINDOW;
-            let depth = st.local(inputs).max(st.window[slot]) + latency;
-            st.retired = st.retired.max(depth);
-            st.window[slot] = st.retired;
-            st.issued += 1;
-            st.top = st.top.max(depth);
+            let depth = st.issue(st.local(inputs), latency);
             st.tagged(depth)
         })
     }
@@ -611,12 +620,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
         // A scalar operation takes its place in the window as a vector one does: scalar code's
         // independent chains (one triangle's, the next one's) overlap only as far as it reaches.
         self.rec.with(|st| {
-            let slot = st.issued % WINDOW;
-            let d = st.scalar_depth(a).max(st.scalar_depth(b)).max(st.window[slot]) + latency;
-            st.retired = st.retired.max(d);
-            st.window[slot] = st.retired;
-            st.issued += 1;
-            st.top = st.top.max(d);
+            let d = st.issue(st.scalar_depth(a).max(st.scalar_depth(b)), latency);
             st.set_scalar(out, d);
         })
     }

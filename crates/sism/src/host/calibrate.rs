@@ -984,6 +984,10 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
         f(&rec);
         rec.take_tasks()
     };
+    // The same kernel both ways: `run(None)` timed natively, `run(Some(r))` counted into `r`
+    // (kernels call [`run_on`]).
+    let native_and_counted =
+        |run: &mut dyn FnMut(Option<&Recorder>)| (time(&mut || run(None)), counted(&mut |r| run(Some(r))));
     let mut warm = Vec::new();
     let (host_ns, tasks) = match bench.kind {
         Kind::Alu { iters, chains } => {
@@ -999,39 +1003,19 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 4 => alu::<4>,
                 _ => alu::<8>,
             };
-            (
-                time(&mut || {
-                    black_box(f(iters, None));
-                }),
-                counted(&mut |r| {
-                    f(iters, Some(r));
-                }),
-            )
+            native_and_counted(&mut |r| {
+                black_box(f(iters, r));
+            })
         }
-        Kind::ScalarChain { iters } => (
-            time(&mut || {
-                black_box(sism_simd::run_native(ScalarK { iters }));
-            }),
-            counted(&mut |r| {
-                sism_simd::run_counting(r, ScalarK { iters });
-            }),
-        ),
-        Kind::Divide { iters } => (
-            time(&mut || {
-                black_box(sism_simd::run_native(DivK { iters }));
-            }),
-            counted(&mut |r| {
-                sism_simd::run_counting(r, DivK { iters });
-            }),
-        ),
-        Kind::ScalarDivide { iters } => (
-            time(&mut || {
-                black_box(sism_simd::run_native(ScalarDivK { iters }));
-            }),
-            counted(&mut |r| {
-                sism_simd::run_counting(r, ScalarDivK { iters });
-            }),
-        ),
+        Kind::ScalarChain { iters } => native_and_counted(&mut |r| {
+            black_box(run_on(r, ScalarK { iters }));
+        }),
+        Kind::Divide { iters } => native_and_counted(&mut |r| {
+            black_box(run_on(r, DivK { iters }));
+        }),
+        Kind::ScalarDivide { iters } => native_and_counted(&mut |r| {
+            black_box(run_on(r, ScalarDivK { iters }));
+        }),
         Kind::ScalarMix { points } => {
             // Points in a box around the view: about one in eight lies behind the near plane.
             let mut st = 0x5eed_u64;
@@ -1041,36 +1025,20 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 .collect();
             let mut out = vec![[0f32; 2]; points];
             let passes = 16;
-            (
-                time(&mut || {
-                    black_box(sism_simd::run_native(ScalarMixK {
-                        points: &pts,
-                        out: &mut out,
-                        passes,
-                    }));
-                }),
-                counted(&mut |r| {
-                    sism_simd::run_counting(
-                        r,
-                        ScalarMixK {
-                            points: &pts,
-                            out: &mut out,
-                            passes,
-                        },
-                    );
-                }),
-            )
+            native_and_counted(&mut |r| {
+                let k = ScalarMixK {
+                    points: &pts,
+                    out: &mut out,
+                    passes,
+                };
+                black_box(run_on(r, k));
+            })
         }
         Kind::Branch { count, period } => {
             let outcomes = branch_outcomes(count, period);
-            (
-                time(&mut || {
-                    black_box(sism_simd::run_native(BranchK { outcomes: &outcomes }));
-                }),
-                counted(&mut |r| {
-                    sism_simd::run_counting(r, BranchK { outcomes: &outcomes });
-                }),
-            )
+            native_and_counted(&mut |r| {
+                black_box(run_on(r, BranchK { outcomes: &outcomes }));
+            })
         }
         Kind::Gather {
             table_kb,
@@ -1081,45 +1049,28 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             let n = (table_kb.bytes(m) / 4).max(256) / 16 * 16;
             let mut table = vec![1.0f32; n];
             let idx = gather_indices(n, lines, count);
-            let ns = time(&mut || {
-                black_box(sism_simd::run_native(GatherK {
+            native_and_counted(&mut |r| {
+                let k = GatherK {
                     table: &mut table,
                     idx: &idx,
                     scatter,
-                }));
-            });
-            let tasks = counted(&mut |r| {
-                sism_simd::run_counting(
-                    r,
-                    GatherK {
-                        table: &mut table,
-                        idx: &idx,
-                        scatter,
-                    },
-                );
-            });
-            (ns, tasks)
+                };
+                black_box(run_on(r, k));
+            })
         }
         Kind::Atomic { count } => {
             let n = (Level::L1.bytes(m) / 4).max(256) / 16 * 16;
             let table: Vec<AtomicI32> = (0..n).map(|_| AtomicI32::new(0)).collect();
             let idx = gather_indices(n, 16, count);
-            let ns = time(&mut || {
-                black_box(sism_simd::run_native(AtomicK {
-                    table: &table,
-                    idx: &idx,
-                }));
-            });
-            let tasks = counted(&mut |r| {
-                sism_simd::run_counting(
+            native_and_counted(&mut |r| {
+                black_box(run_on(
                     r,
                     AtomicK {
                         table: &table,
                         idx: &idx,
                     },
-                );
-            });
-            (ns, tasks)
+                ));
+            })
         }
         Kind::Stream { level, store, bytes } => {
             let n = (level.bytes(m) / 4).max(1024) / 64 * 64;
