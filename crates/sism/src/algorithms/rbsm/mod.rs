@@ -2,12 +2,12 @@
 //! `rpcf-smsr`, `rpcf-rsmss`, on the shadow-map family's depth maps ([`super::shadow_map`]), with the
 //! visibility functions of [`visibility`] (which version of each: see there).
 //!
-//! The lookup kernel works 16 fragments a vector: their map positions (each lane projected as the
-//! scalar functions do, so both see the same fragment), the centre and 4-neighbour tests as gathers,
-//! and the result of every lane without a discontinuity (the plain test) in vector form; lanes with a
-//! discontinuity — a few percent — run the scalar walks and cases, their work counted as scalar
-//! instructions (about 12 per walk or scan step) and their texel reads as scalar reads (in the line
-//! stream the machine model replays).
+//! The lookup kernel works 16 fragments a vector: their map positions (projected 16 at a time by
+//! [`FaceMap::project_lanes`], bit-identical to the scalar functions, so both see the same
+//! fragment), the centre and 4-neighbour tests as gathers, and the result of every lane without a
+//! discontinuity (the plain test) in vector form; lanes with a discontinuity — a few percent — run
+//! the scalar walks and cases, their work counted as scalar instructions (about 12 per walk or scan
+//! step) and their texel reads as scalar reads (in the line stream the machine model replays).
 
 pub mod visibility;
 
@@ -19,7 +19,6 @@ use super::shadow_map::depth_map::{FaceMap, LightMaps};
 use super::shadow_map::{face_tasks, map_frame};
 use super::{AlgorithmFrame, BenchPlan, Family, FrameInputs, ParamKind, ParamSpec, Params, ReceiverSource};
 use crate::algorithms::sism::grid::SampleIn;
-use crate::counted;
 use crate::exec::{task_kind, FrameLog, Phase};
 use crate::stats::{percentiles, Dist, StatsReport};
 use visibility::{Function, Settings};
@@ -291,6 +290,11 @@ impl<S: Simd> visibility::DepthTexels for CountedTexels<'_, S> {
     fn op(&self, class: ScalarClass) {
         self.s.scalar_op(class);
     }
+    #[inline(always)]
+    #[track_caller]
+    fn branch(&self, taken: bool) -> bool {
+        self.s.s_branch(taken)
+    }
 }
 
 /// One lookup task of a face.
@@ -387,27 +391,21 @@ impl Kernel for RbsmLookup<'_> {
         while s.s_lt(i, self.samples.len()) {
             let chunk = &self.samples[i..(i + 16).min(self.samples.len())];
             let m = s.mask_first_n(chunk.len());
-            // Each lane's position exactly as the scalar functions see it. Counted per lane: the
-            // loop's branch, the position's load (its line read with the chunk), the shift, the
-            // projection (its four divides too) and the three stores with the mask's update.
+            // The positions into lanes (scalar work, counted per lane: the loop's branch, the
+            // position's load, its line read with the chunk, and three stores), then projected 16 at
+            // a time, each lane exactly as the scalar functions see it.
             s.scalar_read(chunk);
-            let (mut xs, mut ys, mut zs, mut front) = ([0f32; 16], [0f32; 16], [0f32; 16], 0u16);
+            let mut q = [[0f32; 16]; 3];
             for (lane, smp) in chunk.iter().enumerate() {
                 s.scalar_op(ScalarClass::Branch);
                 s.scalar_op(ScalarClass::Mem);
-                let f = map.face.to_face_counted(s, counted::add(s, smp.q, self.shift));
-                if s.s_lt(0.0, f.z) {
-                    let (pos, d) = map.project_face_counted(s, f);
-                    (xs[lane], ys[lane], zs[lane]) = (pos.x, pos.y, d);
-                    for _ in 0..3 {
-                        s.scalar_op(ScalarClass::Mem);
-                    }
-                    s.scalar_op(ScalarClass::Alu);
-                    front |= 1 << lane;
+                (q[0][lane], q[1][lane], q[2][lane]) = (smp.q.x, smp.q.y, smp.q.z);
+                for _ in 0..3 {
+                    s.scalar_op(ScalarClass::Mem);
                 }
             }
-            let valid = s.mask_and(m, Mask16(front));
-            let (x, y, z) = (s.from_array_f(xs), s.from_array_f(ys), s.from_array_f(zs));
+            let (valid, [x, y, z]) = map.project_lanes(s, m, q.map(|c| s.from_array_f(c)), self.shift);
+            let (xs, ys, zs) = (s.to_array_f(x), s.to_array_f(y), s.to_array_f(z));
             let (hard, _) = plain_and_flagged(s, map, valid, x, y, z);
             // Taps: lanes without a discontinuity keep the plain test; the others run the functions.
             let mut sum = s.splat_f(0.0);

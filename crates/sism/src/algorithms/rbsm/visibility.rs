@@ -52,6 +52,14 @@ pub trait DepthTexels {
     fn op(&self, class: ScalarClass) {
         let _ = class;
     }
+    /// A conditional branch the functions executed on `taken`: a counted map counts it and has its
+    /// SIMD context's branch predictor model predict it at the caller's site (so a walk's
+    /// data-dependent tests cost what their mispredictions cost); returns `taken`.
+    #[inline(always)]
+    #[track_caller]
+    fn branch(&self, taken: bool) -> bool {
+        taken
+    }
 }
 
 impl DepthTexels for FaceMap {
@@ -86,41 +94,41 @@ struct Fragment<'m, M: DepthTexels> {
 }
 
 impl<M: DepthTexels> Fragment<'_, M> {
-    /// The depth test of texel `(x, y)`: its address (two adds), the read, the compare and branch.
+    /// The depth test of texel `(x, y)`: its address (two adds), the read, the compare and branch
+    /// (predicted at the caller's site, as an inlined test is a branch of its own).
     #[inline]
+    #[track_caller]
     fn lit_at(&self, x: i64, y: i64, z: f32) -> bool {
         self.map.op(ScalarClass::Alu);
         self.map.op(ScalarClass::Alu);
-        self.map.op(ScalarClass::Branch);
-        z <= self.map.depth(x, y)
+        self.map.branch(z <= self.map.depth(x, y))
+    }
+    /// A branch of the functions on `taken` (counted and predicted at the caller's site).
+    #[inline]
+    #[track_caller]
+    fn br(&self, taken: bool) -> bool {
+        self.map.branch(taken)
     }
     /// Is `z` within `epsilon` of texel `(x, y)`'s depth? The address, the read, a subtract, an
     /// absolute value, the compare and branch.
     #[inline]
+    #[track_caller]
     fn near(&self, x: i64, y: i64, z: f32, epsilon: f32) -> bool {
-        for class in [
-            ScalarClass::Alu,
-            ScalarClass::Alu,
-            ScalarClass::Alu,
-            ScalarClass::Alu,
-            ScalarClass::Branch,
-        ] {
-            self.map.op(class);
+        for _ in 0..4 {
+            self.map.op(ScalarClass::Alu);
         }
-        (z - self.map.depth(x, y)).abs() < epsilon
+        self.map.branch((z - self.map.depth(x, y)).abs() < epsilon)
     }
     /// One step of a walk or scan: the step count and two coordinates advanced, the loop's branch.
     #[inline]
+    #[track_caller]
     fn step(&self, steps: &mut u32) {
         *steps += 1;
-        for class in [
-            ScalarClass::Alu,
-            ScalarClass::Alu,
-            ScalarClass::Alu,
-            ScalarClass::Branch,
-        ] {
-            self.map.op(class);
+        for _ in 0..3 {
+            self.map.op(ScalarClass::Alu);
         }
+        // The loop's branch, taken back to the loop's top.
+        self.map.branch(true);
     }
     /// `x` clamped to [0, 1] (a min and a max).
     #[inline]
@@ -130,6 +138,7 @@ impl<M: DepthTexels> Fragment<'_, M> {
         clamp01(x)
     }
     #[inline]
+    #[track_caller]
     fn shadowed(&self, x: i64, y: i64) -> bool {
         !self.lit_at(x, y, self.z)
     }
@@ -230,8 +239,7 @@ fn alpha<M: DepthTexels>(
     let mut zz = f.z;
     for _ in 0..s.max_search {
         f.step(steps);
-        f.map.op(ScalarClass::Branch);
-        if entering && f.near(tx, ty, zz, s.epsilon) {
+        if f.br(entering) && f.near(tx, ty, zz, s.epsilon) {
             zz -= s.epsilon;
         }
         let here = f.lit_at(tx, ty, zz);
@@ -247,8 +255,7 @@ fn alpha<M: DepthTexels>(
         let mut zl = zz;
         let mut keep = false;
         for m in perpendicular.iter() {
-            f.map.op(ScalarClass::Branch);
-            if rsmss && !entering && f.near(tx + m.0, ty + m.1, zl, s.epsilon) {
+            if f.br(rsmss && !entering) && f.near(tx + m.0, ty + m.1, zl, s.epsilon) {
                 zl -= s.epsilon;
             }
             if f.lit_at(tx + m.0, ty + m.1, zl) != code.c {
@@ -275,25 +282,22 @@ fn normalise<M: DepthTexels>(f: &Fragment<'_, M>, a_minus: i32, a_plus: i32, p: 
     // conversion), the choice of `po`, `d` (a max, a conversion, two divides, two adds) and the
     // last test with its multiply-add.
     let ops = |class: ScalarClass, n: usize| (0..n).for_each(|_| f.map.op(class));
-    ops(ScalarClass::Branch, 2);
-    if a_minus < 0 && a_plus < 0 {
+    if f.br(a_minus < 0) && f.br(a_plus < 0) {
         return -1.0;
     }
     ops(ScalarClass::Alu, 6);
     let lh = ((a_minus.abs() + a_plus.abs() - 1).min(max_search)) as f32;
-    ops(ScalarClass::Branch, 2);
     ops(ScalarClass::Alu, 6);
     ops(ScalarClass::Div, 2);
-    ops(ScalarClass::Branch, 2);
-    let po = if a_minus == a_plus {
+    let po = if f.br(a_minus == a_plus) {
         p.min(1.0 - p)
-    } else if a_minus > a_plus {
+    } else if f.br(a_minus > a_plus) {
         1.0 - p
     } else {
         p
     };
     let d = 1.0 - a_minus.max(a_plus) as f32 / lh + po / lh;
-    if a_minus > 0 && a_plus > 0 {
+    if f.br(a_minus > 0) && f.br(a_plus > 0) {
         2.0 * d - 3.0
     } else {
         d
@@ -340,26 +344,26 @@ fn deltas(f_px: f32, f_py: f32, code: Code) -> (f32, f32) {
 
 /// `v_SMSR`, paper era (§3). Returns `f`.
 fn smsr<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &mut u32) -> f32 {
-    if !code.c {
+    if f.br(!code.c) {
         return 0.0;
     }
-    if code.rc == 0 && code.gc == 0 {
+    if f.br(code.rc == 0 && code.gc == 0) {
         return 1.0;
     }
     let (nx, ny) = onds(f, code, Function::Smsr, s, steps);
     let (dx, dy) = deltas(f.px, f.py, code);
-    if nx == -1.0 && ny == -1.0 {
+    if f.br(nx == -1.0 && ny == -1.0) {
         return 1.0;
     }
-    if nx <= -2.0 || ny <= -2.0 {
+    if f.br(nx <= -2.0 || ny <= -2.0) {
         return 0.0;
     }
-    if code.rc == 3 || code.gc == 3 {
+    if f.br(code.rc == 3 || code.gc == 3) {
         return 0.0;
     }
     let rule5 = if nx <= dy { 1.0 } else { 0.0 };
     let rule6 = if ny <= dx { 1.0 } else { 0.0 };
-    if code.rc > 0 && code.gc > 0 {
+    if f.br(code.rc > 0 && code.gc > 0) {
         let qx = if code.rc == 2 {
             (f.i + 1, f.j)
         } else {
@@ -378,7 +382,7 @@ fn smsr<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &m
             (true, true) => rule5.min(rule6),
         };
     }
-    if code.gc > 0 {
+    if f.br(code.gc > 0) {
         rule5
     } else {
         rule6
@@ -388,12 +392,12 @@ fn smsr<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &m
 /// `v_RSMSS`, ReallyOptimized (§4). Returns `f`.
 fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &mut u32) -> f32 {
     let (rc, gc) = (code.rc, code.gc);
-    if rc == 0 && gc == 0 {
+    if f.br(rc == 0 && gc == 0) {
         return if code.c { 1.0 } else { 0.0 };
     }
     let b = if code.c { 0.0 } else { 1.0 };
     // C2/C3.
-    if rc == 3 && gc == 3 {
+    if f.br(rc == 3 && gc == 3) {
         return b;
     }
     let (nx, ny) = onds(f, code, Function::Rsmss, s, steps);
@@ -401,26 +405,26 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
     let (dx, dy) = deltas(px, py, code);
     let ay = if gc == 0 {
         f32::INFINITY
-    } else if nx < -2.0 {
+    } else if f.br(nx < -2.0) {
         dy
     } else {
         f.clamp01(1.0 + dy - nx)
     };
     let ax = if rc == 0 {
         f32::INFINITY
-    } else if ny < -2.0 {
+    } else if f.br(ny < -2.0) {
         dx
     } else {
         f.clamp01(1.0 + dx - ny)
     };
     let (i, j) = (f.i, f.j);
-    if code.c {
+    if f.br(code.c) {
         // ---- Entering.
-        if nx == -1.0 && ny == -1.0 {
+        if f.br(nx == -1.0 && ny == -1.0) {
             return 1.0; // C1
         }
         let mut start = (i, j);
-        if nx <= -2.0 && ny <= -2.0 && rc != 0 && gc != 0 && (rc == 3 || gc == 3) {
+        if f.br(nx <= -2.0 && ny <= -2.0 && rc != 0 && gc != 0 && (rc == 3 || gc == 3)) {
             // C5/C7.
             let sx = match rc {
                 2 => 1,
@@ -438,7 +442,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             } else {
                 f.shadowed(q.0, q.1 + 1) && f.shadowed(q.0, q.1 - 1)
             };
-            if umbra_both {
+            if f.br(umbra_both) {
                 let (nxp, nyp) = ((nx + 4.0) / 2.0, (ny + 4.0) / 2.0);
                 return if rc == 3 {
                     f.clamp01(px - nyp + 1.0).min(f.clamp01(2.0 - px - nyp)).min(py)
@@ -448,7 +452,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             }
             start = q; // fall through to C8/C10 from q
         }
-        if gc == 3 && (rc == 1 || rc == 2) {
+        if f.br(gc == 3 && (rc == 1 || rc == 2)) {
             // C8/C10, g dual.
             let step = if rc == 2 { (1, 0) } else { (-1, 0) };
             let mut q = start;
@@ -458,7 +462,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 f.step(steps);
                 pb = f.shadowed(q.0 + B.0, q.1 + B.1);
                 nt = f.shadowed(q.0 + T.0, q.1 + T.1);
-                if !(pb && nt) || f.shadowed(q.0, q.1) {
+                if f.br(!(pb && nt)) || f.shadowed(q.0, q.1) {
                     break;
                 }
             }
@@ -470,7 +474,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 a.min(c)
             };
         }
-        if rc == 3 && (gc == 1 || gc == 2) {
+        if f.br(rc == 3 && (gc == 1 || gc == 2)) {
             // C8/C10, r dual.
             let step = if gc == 2 { (0, -1) } else { (0, -2) };
             let mut q = start;
@@ -480,7 +484,7 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 f.step(steps);
                 pl = f.shadowed(q.0 + L.0, q.1 + L.1);
                 nr = f.shadowed(q.0 + R.0, q.1 + R.1);
-                if !(pl && nr) || f.shadowed(q.0, q.1) {
+                if f.br(!(pl && nr)) || f.shadowed(q.0, q.1) {
                     break;
                 }
             }
@@ -492,12 +496,12 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 a.min(c)
             };
         }
-        if rc == 3 && gc == 0 {
+        if f.br(rc == 3 && gc == 0) {
             // C9/C11, a vertical corridor: walk ±v.
             let (lp, rp, lm, rm) = corridor(f, (0, 1), L, R, steps);
             return corridor_value(px, ny, lp, rp, lm, rm);
         }
-        if gc == 3 && rc == 0 {
+        if f.br(gc == 3 && rc == 0) {
             // C9/C11 mirrored: walk ±u, T for L, B for R.
             let (tp, bp, tm, bm) = corridor(f, (1, 0), T, B, steps);
             return corridor_value(py, nx, tp, bp, tm, bm);
@@ -508,11 +512,11 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
     let sigma_y = if gc == 1 { 1.0 - py } else { py };
     let sigma_x = if rc == 1 { px } else { 1.0 - px };
     let sel = |n: f32, a: f32, c: f32| if n < -2.0 { a } else { c };
-    if rc == 3 && gc == 0 {
+    if f.br(rc == 3 && gc == 0) {
         // C12.
         let mut l = f.shadowed(i - 2, j);
         let mut r = f.shadowed(i + 2, j);
-        if !l && !r {
+        if f.br(!l && !r) {
             let mut k = 1i64;
             loop {
                 f.step(steps);
@@ -520,12 +524,12 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 for row in [j + k, j - k] {
                     l = f.shadowed(i - 1, row + 1) || f.shadowed(i - 1, row - 1);
                     r = f.shadowed(i + 1, row + 1) || f.shadowed(i + 1, row - 1);
-                    if l || r {
+                    if f.br(l || r) {
                         hit = true;
                         break;
                     }
                 }
-                if hit {
+                if f.br(hit) {
                     break;
                 }
                 k += 1;
@@ -533,22 +537,22 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         }
         return if l && r {
             f.clamp01(ny)
-        } else if !l {
+        } else if f.br(!l) {
             sel(ny, 1.0 - px, f.clamp01(ny - px))
         } else {
             sel(ny, px, f.clamp01(ny - 1.0 + px))
         };
     }
-    if rc == 3 {
+    if f.br(rc == 3) {
         // C13 (gc != 0).
         let dv = if gc == 2 { -1 } else { 1 };
         let mut q = (i, j + dv);
         let l = f.shadowed(q.0 - 1, q.1);
         let r = f.shadowed(q.0 + 1, q.1);
-        if l && r {
+        if f.br(l && r) {
             return f.clamp01(ny);
         }
-        if l != r {
+        if f.br(l != r) {
             let a = if l {
                 sigma_y
             } else {
@@ -575,11 +579,11 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
             (if l { px } else { 1.0 - px }).max(sigma_y)
         };
     }
-    if gc == 3 && rc == 0 {
+    if f.br(gc == 3 && rc == 0) {
         // C14.
         let mut t = f.shadowed(i - 1, j - 1) || f.shadowed(i + 1, j - 1);
         let mut bt = f.shadowed(i - 1, j + 1) || f.shadowed(i + 1, j + 1);
-        if !t && !bt {
+        if f.br(!t && !bt) {
             let mut k = 1i64;
             loop {
                 f.step(steps);
@@ -587,12 +591,12 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
                 for col in [i + k, i - k] {
                     t = f.shadowed(col - 1, j - 1) || f.shadowed(col + 1, j - 1);
                     bt = f.shadowed(col - 1, j + 1) || f.shadowed(col + 1, j + 1);
-                    if t || bt {
+                    if f.br(t || bt) {
                         hit = true;
                         break;
                     }
                 }
-                if hit {
+                if f.br(hit) {
                     break;
                 }
                 k += 1;
@@ -600,22 +604,22 @@ fn rsmss<M: DepthTexels>(f: &Fragment<'_, M>, code: Code, s: &Settings, steps: &
         }
         return if t && bt {
             f.clamp01(nx)
-        } else if !t {
+        } else if f.br(!t) {
             sel(nx, 1.0 - py, f.clamp01(nx - py))
         } else {
             sel(nx, py, f.clamp01(nx - 1.0 + py))
         };
     }
-    if gc == 3 {
+    if f.br(gc == 3) {
         // C15 (rc != 0).
         let du = if rc == 2 { 1 } else { -1 };
         let mut q = (i + du, j);
         let bt = f.shadowed(q.0, q.1 + 1);
         let t = f.shadowed(q.0, q.1 - 1);
-        if bt && t {
+        if f.br(bt && t) {
             return f.clamp01(nx);
         }
-        if bt != t {
+        if f.br(bt != t) {
             let a = if t {
                 sigma_x
             } else {
@@ -657,7 +661,7 @@ fn corridor<M: DepthTexels>(
     let (mut walk_plus, mut walk_minus) = (true, true);
     while ap && bp && am && bm && (walk_plus || walk_minus) {
         f.step(steps);
-        if walk_plus {
+        if f.br(walk_plus) {
             plus = (plus.0 + axis.0, plus.1 + axis.1);
             if f.shadowed(plus.0, plus.1) {
                 walk_plus = false;
@@ -668,7 +672,7 @@ fn corridor<M: DepthTexels>(
                 bp = f.shadowed(plus.0 + side_b.0, plus.1 + side_b.1);
             }
         }
-        if walk_minus {
+        if f.br(walk_minus) {
             minus = (minus.0 - axis.0, minus.1 - axis.1);
             if f.shadowed(minus.0, minus.1) {
                 walk_minus = false;

@@ -160,6 +160,57 @@ impl FaceMap {
         (Vec2::new(x, y), s.s_mul(s.s_sub(f.z, self.z0), self.inv_range))
     }
 
+    /// [`FaceMap::project_face`] of `face.to_face(q + shift)` for 16 points at once, bit-identical
+    /// to the scalar functions in every lane (the same operations in the same order: no fused
+    /// multiply-adds, correctly rounded divides), so a vector kernel and the scalar visibility
+    /// functions see the same fragment.
+    ///
+    /// `qx, qy, qz`: positions relative to the light centre (world units); `shift`: the offset to
+    /// the map's light point. Returns the lanes of `m` in front of the face (`z > 0`) and, in those
+    /// lanes, the continuous map position `(x, y)` and normalised depth; other lanes hold `+0.0`.
+    #[inline(always)]
+    pub fn project_lanes<S: Simd>(
+        &self,
+        s: S,
+        m: sism_simd::Mask16,
+        [qx, qy, qz]: [S::F32; 3],
+        shift: Vec3,
+    ) -> (sism_simd::Mask16, [S::F32; 3]) {
+        let q = [
+            s.add_f(qx, s.splat_f(shift.x)),
+            s.add_f(qy, s.splat_f(shift.y)),
+            s.add_f(qz, s.splat_f(shift.z)),
+        ];
+        // glam's dot: (x·x' + y·y') + z·z'.
+        let dot = |a: Vec3| {
+            s.add_f(
+                s.add_f(s.mul_f(q[0], s.splat_f(a.x)), s.mul_f(q[1], s.splat_f(a.y))),
+                s.mul_f(q[2], s.splat_f(a.z)),
+            )
+        };
+        let f = &self.face;
+        let (fx, fy, fz) = (dot(f.right), dot(f.up), dot(f.axis));
+        let zero = s.splat_f(0.0);
+        let front = s.mask_and(m, s.cmp_gt_f(fz, zero));
+        // Lanes behind the face divide by 1 (no infinities to carry) and are zeroed below.
+        let safe_z = s.select_f(front, fz, s.splat_f(1.0));
+        let half = s.splat_f(0.5 * self.size as f32);
+        let (one, extent) = (s.splat_f(1.0), s.splat_f(self.extent));
+        let u = s.div_f(fx, safe_z);
+        let v = s.div_f(fy, safe_z);
+        let x = s.mul_f(s.add_f(s.div_f(u, extent), one), half);
+        let y = s.mul_f(s.sub_f(one, s.div_f(v, extent)), half);
+        let d = s.mul_f(s.sub_f(safe_z, s.splat_f(self.z0)), s.splat_f(self.inv_range));
+        (
+            front,
+            [
+                s.select_f(front, x, zero),
+                s.select_f(front, y, zero),
+                s.select_f(front, d, zero),
+            ],
+        )
+    }
+
     /// [`FaceMap::project_face`] of world point `p`.
     #[inline]
     pub fn project(&self, p: Vec3) -> (Vec2, f32) {
