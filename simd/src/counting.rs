@@ -996,6 +996,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
     fn scalar_op(self, class: crate::ScalarClass) {
         self.rec.with(|st| match class {
             crate::ScalarClass::Alu => st.c.scalar_alu += 1,
+            crate::ScalarClass::Float => st.c.scalar_float += 1,
             crate::ScalarClass::Div => st.c.scalar_div += 1,
             crate::ScalarClass::Branch => st.c.scalar_branch += 1,
             crate::ScalarClass::Mem => st.c.scalar_mem += 1,

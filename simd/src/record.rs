@@ -58,8 +58,11 @@ counters! {
     /// Scalar instructions declared by the kernel via `scalar_ops(n)` (estimates; being replaced
     /// by the counted classes below).
     scalar,
-    /// Counted scalar ALU operations (`s_add`, `s_mul`, `s_min`, conversions, ...).
+    /// Counted scalar integer ALU operations (`s_add`, `s_mul`, `s_min` on integers), float abs,
+    /// rounding and conversions (`s_fn`), and declared ALU work.
     scalar_alu,
+    /// Counted scalar float adds, subtracts, multiplies, min and max ([`crate::ScalarClass::Float`]).
+    scalar_float,
     /// Counted scalar divides and square roots.
     scalar_div,
     /// Counted scalar compares and branches.
@@ -119,6 +122,7 @@ impl Counters {
             + self.mask
             + self.scalar
             + self.scalar_alu
+            + self.scalar_float
             + self.scalar_div
             + self.scalar_branch
             + self.scalar_mem
@@ -169,7 +173,8 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 
 const MAGIC: u8 = 0x5A;
 // Version 2: `critical_path` and the counted scalar classes. Version 3: `branch_mispredicts`.
-const VERSION: u8 = 3;
+// Version 4: `scalar_float`.
+const VERSION: u8 = 4;
 
 impl TaskRecord {
     /// Compact binary form: magic, version, then varints (kind, every

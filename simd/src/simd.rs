@@ -34,8 +34,13 @@ impl BackendKind {
 /// Class of a counted scalar operation ([`Simd::scalar_op`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ScalarClass {
-    /// Integer and float add, subtract, multiply, min/max, abs, rounding, conversions.
+    /// Integer add, subtract, multiply, min/max, shifts and logic; float abs, rounding and
+    /// conversions ([`Simd::s_fn`]).
     Alu,
+    /// Float add, subtract, multiply, min/max ([`Simd::s_add`] and friends on `f32`/`f64`): on an
+    /// out-of-order x86 core these issue on the vector unit's pipes, beside the vector operations,
+    /// not on the integer ALUs.
+    Float,
     /// Divides and square roots (long latency, not pipelined on most cores).
     Div,
     /// Compares feeding branches, and branches.
@@ -54,6 +59,9 @@ pub trait ScalarNum:
     + core::ops::Mul<Output = Self>
     + core::ops::Div<Output = Self>
 {
+    /// The class of its add, subtract, multiply, min and max: [`ScalarClass::Float`] for floats,
+    /// [`ScalarClass::Alu`] for integers.
+    const CLASS: ScalarClass;
     /// The type's own `min` (floats: `f32::min`'s NaN rule).
     fn min_of(self, b: Self) -> Self;
     /// The type's own `max`.
@@ -108,8 +116,9 @@ pub mod scalar_latency {
 }
 
 macro_rules! scalar_num {
-    ($($t:ty),*) => { $(
+    ($class:ident: $($t:ty),*) => { $(
         impl ScalarNum for $t {
+            const CLASS: ScalarClass = ScalarClass::$class;
             #[inline(always)]
             fn min_of(self, b: Self) -> Self {
                 self.min(b)
@@ -121,7 +130,8 @@ macro_rules! scalar_num {
         }
     )* };
 }
-scalar_num!(f32, f64, i32, u32, i64, u64, usize);
+scalar_num!(Float: f32, f64);
+scalar_num!(Alu: i32, u32, i64, u64, usize);
 
 /// The 16-wide vector instruction set, in the style of Larrabee's LRBni.
 ///
@@ -568,26 +578,26 @@ pub trait Simd: Copy {
     // context (natively exactly the plain operation).
     // ------------------------------------------------------------------
 
-    /// Scalar `a + b` (counted: [`ScalarClass::Alu`]).
+    /// Scalar `a + b` (counted: `T::CLASS`, [`ScalarClass::Float`] or [`ScalarClass::Alu`]).
     #[inline(always)]
     fn s_add<T: ScalarNum>(self, a: T, b: T) -> T {
-        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(T::CLASS);
         let r = a + b;
         self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
         r
     }
-    /// Scalar `a - b` ([`ScalarClass::Alu`]).
+    /// Scalar `a - b` (`T::CLASS`).
     #[inline(always)]
     fn s_sub<T: ScalarNum>(self, a: T, b: T) -> T {
-        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(T::CLASS);
         let r = a - b;
         self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
         r
     }
-    /// Scalar `a * b` ([`ScalarClass::Alu`]).
+    /// Scalar `a * b` (`T::CLASS`).
     #[inline(always)]
     fn s_mul<T: ScalarNum>(self, a: T, b: T) -> T {
-        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(T::CLASS);
         let r = a * b;
         self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
         r
@@ -600,18 +610,18 @@ pub trait Simd: Copy {
         self.scalar_chain(scalar_latency::DIV, a.chain_key(), b.chain_key(), r.chain_key());
         r
     }
-    /// Scalar `a.min(b)`, the type's own ([`ScalarClass::Alu`]).
+    /// Scalar `a.min(b)`, the type's own (`T::CLASS`).
     #[inline(always)]
     fn s_min<T: ScalarNum>(self, a: T, b: T) -> T {
-        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(T::CLASS);
         let r = a.min_of(b);
         self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
         r
     }
-    /// Scalar `a.max(b)`, the type's own ([`ScalarClass::Alu`]).
+    /// Scalar `a.max(b)`, the type's own (`T::CLASS`).
     #[inline(always)]
     fn s_max<T: ScalarNum>(self, a: T, b: T) -> T {
-        self.scalar_op(ScalarClass::Alu);
+        self.scalar_op(T::CLASS);
         let r = a.max_of(b);
         self.scalar_chain(scalar_latency::ALU, a.chain_key(), b.chain_key(), r.chain_key());
         r

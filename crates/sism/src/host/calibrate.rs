@@ -13,7 +13,8 @@
 //! recorded critical path), `load_store_cycles` (streaming loads from
 //! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains counted as scalar
 //! ALU operations; scalar geometry through the counted float operations is a check),
-//! `mispredict_cycles` (a branch on random bytes), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
+//! `mispredict_cycles` (a branch on random bytes), `scalar_float_cycles` (vector chains interleaved
+//! with scalar float chains), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
 //! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
 //! `l2_latency`, `l3_latency` and `dram_latency_ns` (loads of random lines of arrays that live in
 //! L2, in the shared cache, in DRAM: what a miss no prefetcher covers costs, independent misses
@@ -81,6 +82,9 @@ pub enum Fits {
     StreamRamp,
     /// `mispredict_cycles`, by a branch on random data (half its outcomes mispredicted).
     Mispredict,
+    /// `scalar_float_cycles`, by vector chains interleaved with scalar float chains (after
+    /// `vector_cycles`: what the scalar floats add to the vector unit's issue).
+    ScalarFloat,
     /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
@@ -109,6 +113,17 @@ enum Kind {
         chains: usize,
     },
     ScalarChain {
+        iters: usize,
+    },
+    /// `iters` rounds of 8 scalar float adds and multiplies on 8 independent chains, with
+    /// (`vector`) or without 8 vector add/mul/fma on 8 more ([`FloatMixK`]).
+    ScalarFloat {
+        iters: usize,
+        vector: bool,
+    },
+    /// `iters` rounds of [`CompareSelectK`]: compares into masks, mask logic and selects on 8
+    /// independent chains, through the kernels' API.
+    CompareSelect {
         iters: usize,
     },
     /// [`ScalarMixK`] over `points` points (an L2-sized array), 16 passes.
@@ -247,6 +262,30 @@ pub const BENCHES: &[Bench] = &[
         what: "scalar f32 div and sqrt, 4 independent chains",
         fits: Fits::ScalarDivide,
         kind: Kind::ScalarDivide { iters: 200_000 },
+    },
+    Bench {
+        name: "alu-scalar-float",
+        what: "16-lane add/mul/fma on 8 chains, interleaved with scalar f32 add/mul on 8 more",
+        fits: Fits::ScalarFloat,
+        kind: Kind::ScalarFloat {
+            iters: 200_000,
+            vector: true,
+        },
+    },
+    Bench {
+        name: "scalar-float",
+        what: "scalar f32 add/mul on 8 independent chains (no vector work)",
+        fits: Fits::Check,
+        kind: Kind::ScalarFloat {
+            iters: 400_000,
+            vector: false,
+        },
+    },
+    Bench {
+        name: "compare-select",
+        what: "16-lane compares into masks, mask and/or, selects and adds on 8 independent chains",
+        fits: Fits::Check,
+        kind: Kind::CompareSelect { iters: 100_000 },
     },
     Bench {
         name: "branch-random",
@@ -598,6 +637,120 @@ impl<const CHAINS: usize> Kernel for AluK<CHAINS> {
         }
         let mut sum = a[0];
         for v in &a[1..CHAINS] {
+            sum = s.add_f(sum, *v);
+        }
+        s.reduce_add_f(sum)
+    }
+}
+
+/// Keeps `x` in a register as an opaque value: the compiler can neither fold a chain of scalar
+/// operations through it nor merge eight scalar chains into one vector operation (which it would
+/// otherwise do with the chains of [`FloatMixK`]). Costs no instruction.
+#[inline(always)]
+fn opaque_f32(x: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut x = x;
+        // SAFETY: an empty template; the register is left as it is.
+        unsafe {
+            core::arch::asm!("/* {0} */", inout(xmm_reg) x, options(nomem, nostack, preserves_flags));
+        }
+        x
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        black_box(x)
+    }
+}
+
+/// `iters` rounds of eight scalar f32 operations (four adds, four multiplies) on eight independent
+/// chains, counted as they execute ([`sism_simd::ScalarClass::Float`]), and with `vector` eight
+/// 16-lane add/mul/fma on eight more chains (as [`AluK`]) in the same rounds: how much of the
+/// vector unit's issue the scalar floats take beside vector work (`scalar_float_cycles`), and
+/// without vector work, a check that they still take their scalar issue slot (`scalar_cycles`).
+struct FloatMixK {
+    iters: usize,
+    vector: bool,
+}
+impl Kernel for FloatMixK {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let k = s.splat_f(black_box(1.000_001));
+        let c = s.splat_f(black_box(1e-7));
+        let mut a = [s.splat_f(1.0); 8];
+        let (sk, sc) = (black_box(1.000_001f32), black_box(1e-7f32));
+        // Eight named chains (an array indexed in the loop may live in memory, its chains then
+        // running through store forwarding).
+        let [mut x0, mut x1, mut x2, mut x3, mut x4, mut x5, mut x6, mut x7] =
+            black_box([1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]);
+        let vector = self.vector;
+        for _ in 0..self.iters {
+            if vector {
+                a[0] = s.add_f(a[0], c);
+                a[1] = s.mul_f(a[1], k);
+                a[2] = s.fmadd(a[2], k, c);
+                a[3] = s.add_f(a[3], c);
+                a[4] = s.mul_f(a[4], k);
+                a[5] = s.fmadd(a[5], k, c);
+                a[6] = s.add_f(a[6], c);
+                a[7] = s.fmadd(a[7], k, c);
+            }
+            x0 = opaque_f32(s.s_mul(x0, sk));
+            x1 = opaque_f32(s.s_add(x1, sc));
+            x2 = opaque_f32(s.s_mul(x2, sk));
+            x3 = opaque_f32(s.s_add(x3, sc));
+            x4 = opaque_f32(s.s_mul(x4, sk));
+            x5 = opaque_f32(s.s_add(x5, sc));
+            x6 = opaque_f32(s.s_mul(x6, sk));
+            x7 = opaque_f32(s.s_add(x7, sc));
+        }
+        let x = [x0, x1, x2, x3, x4, x5, x6, x7];
+        let mut sum = a[0];
+        for v in &a[1..] {
+            sum = s.add_f(sum, *v);
+        }
+        s.reduce_add_f(sum) + x.iter().sum::<f32>()
+    }
+}
+
+/// The kernels' mask idiom, through the [`Simd`] API as they use it: per chain and round a
+/// compare into a mask, a mask `and` with the previous round's mask, a select on it and an add (8
+/// independent chains). A check of the vector costs on mask-heavy code: the compares and selects
+/// are counted as vector ALU operations, the mask logic as mask operations.
+struct CompareSelectK {
+    iters: usize,
+}
+impl Kernel for CompareSelectK {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        let (lo, hi) = (s.splat_f(black_box(0.25)), s.splat_f(black_box(0.75)));
+        let step = s.splat_f(black_box(0.618_034));
+        let one = s.splat_f(1.0);
+        // Lanes start spread over [0, 0.95) (no vector operation inside a closure: it would be
+        // compiled out of line).
+        let lanes = s.mul_f(s.cvt_i_f(s.index_i()), s.splat_f(0.01));
+        let mut a = [lanes; 8];
+        for (k, v) in a.iter_mut().enumerate() {
+            *v = s.add_f(lanes, s.splat_f(k as f32 * 0.1));
+        }
+        let mut m = [Mask16::ALL; 8];
+        for _ in 0..self.iters {
+            for k in 0..8 {
+                let inside = s.mask_and(m[k], s.cmp_lt_f(a[k], hi));
+                let x = s.add_f(a[k], step);
+                // Wrap into [0, 1) where the lane was inside, step back where it was not.
+                a[k] = s.select_f(
+                    inside,
+                    s.select_f(s.cmp_ge_f(x, one), s.sub_f(x, one), x),
+                    s.sub_f(a[k], lo),
+                );
+                m[k] = s.mask_or(inside, s.cmp_lt_f(a[k], lo));
+            }
+        }
+        let mut sum = a[0];
+        for v in &a[1..] {
             sum = s.add_f(sum, *v);
         }
         s.reduce_add_f(sum)
@@ -1007,6 +1160,12 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 black_box(f(iters, r));
             })
         }
+        Kind::CompareSelect { iters } => native_and_counted(&mut |r| {
+            black_box(run_on(r, CompareSelectK { iters }));
+        }),
+        Kind::ScalarFloat { iters, vector } => native_and_counted(&mut |r| {
+            black_box(run_on(r, FloatMixK { iters, vector }));
+        }),
         Kind::ScalarChain { iters } => native_and_counted(&mut |r| {
             black_box(run_on(r, ScalarK { iters }));
         }),
@@ -1336,6 +1495,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::StreamDram => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_dram_cycles = c),
                 Fits::StreamRamp => solve(&mut m, x, 0.0, 1.0, &|m, c| m.stream_ramp_share = c),
                 Fits::Mispredict => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.mispredict_cycles = c),
+                Fits::ScalarFloat => solve(&mut m, x, 0.0, 100.0, &|m, c| m.scalar_float_cycles = c),
                 Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.barrier_cycles = c.round() as u32
                 }),
@@ -1368,6 +1528,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.stream_dram_cycles = (m.stream_dram_cycles * 1000.0).round() / 1000.0;
     m.stream_ramp_share = (m.stream_ramp_share * 1000.0).round() / 1000.0;
     m.mispredict_cycles = (m.mispredict_cycles * 100.0).round() / 100.0;
+    m.scalar_float_cycles = (m.scalar_float_cycles * 1000.0).round() / 1000.0;
     m.name = "host-calibrated".into();
     let rows = measured
         .iter()
@@ -1451,6 +1612,7 @@ mod tests {
         truth.task_overhead_cycles = 1500.0;
         truth.barrier_cycles = 8000;
         truth.mispredict_cycles = 15.0;
+        truth.scalar_float_cycles = 0.2;
         // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
         let shrink = |k: Kind| match k {
             Kind::Alu { chains, .. } => Kind::Alu { iters: 2000, chains },
@@ -1462,6 +1624,7 @@ mod tests {
                 period,
             },
             Kind::ScalarMix { .. } => Kind::ScalarMix { points: 1000 },
+            Kind::ScalarFloat { vector, .. } => Kind::ScalarFloat { iters: 2000, vector },
             Kind::Gather {
                 table_kb,
                 lines,
@@ -1525,6 +1688,7 @@ mod tests {
         start.task_overhead_cycles = 0.0;
         start.barrier_cycles = 0;
         start.mispredict_cycles = 1.0;
+        start.scalar_float_cycles = 1.0;
         let c = fit(&start, &measured).config;
         let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs().max(1.0);
         let near_abs = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
@@ -1534,6 +1698,11 @@ mod tests {
             c.mispredict_cycles
         );
         assert!(near(c.vector_cycles, 0.7, 0.02), "vector {}", c.vector_cycles);
+        assert!(
+            near_abs(c.scalar_float_cycles, 0.2, 0.01),
+            "scalar float {}",
+            c.scalar_float_cycles
+        );
         assert!(
             near(c.latency_scale, 0.825, 0.02),
             "vector latency {}",

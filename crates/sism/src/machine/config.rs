@@ -81,6 +81,7 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("stream_dram_cycles", 0.0, 10_000.0),
     ("stream_ramp_share", 0.0, 1.0),
     ("mispredict_cycles", 0.0, 10_000.0),
+    ("scalar_float_cycles", 0.0, 10_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -263,6 +264,16 @@ pub struct MachineConfig {
     /// Zen 4 optimisation guide gives a minimum penalty of 11 cycles, typically 13).
     #[serde(default = "mispredict_default")]
     pub mispredict_cycles: f64,
+    /// Cycles of the vector unit's issue that one counted scalar float operation
+    /// (`Counters::scalar_float`: add, subtract, multiply, min, max) takes on an out-of-order core
+    /// (0–10000; with `separate_ports`): x86 cores run scalar float arithmetic on the vector
+    /// unit's pipes, so it competes with the vector operations, while it also takes its scalar
+    /// issue slot (`scalar_cycles`). Hosts: fitted on vector chains interleaved with scalar float
+    /// chains (on a Zen 4 host a scalar float operation adds about a third of a 16-lane one).
+    /// In order (Larrabee) scalar floats run on the scalar pipe like any scalar operation and this
+    /// is unused (0, the default).
+    #[serde(default)]
+    pub scalar_float_cycles: f64,
 }
 
 fn one() -> f64 {
@@ -345,6 +356,7 @@ impl MachineConfig {
             stream_dram_cycles: 0.0,
             stream_ramp_share: 1.0,
             mispredict_cycles: 4.0,
+            scalar_float_cycles: 0.0,
         }
     }
 
@@ -583,6 +595,7 @@ impl MachineConfig {
             "stream_dram_cycles" => self.stream_dram_cycles,
             "stream_ramp_share" => self.stream_ramp_share,
             "mispredict_cycles" => self.mispredict_cycles,
+            "scalar_float_cycles" => self.scalar_float_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

@@ -306,6 +306,10 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         // A mispredicted branch: starting point (Zen 4's typical penalty, AMD's optimisation
         // guide), fitted by `sism calibrate` on a branch on random data.
         mispredict_cycles: 13.0,
+        // A scalar float operation on the vector pipes: starting point (one 256-bit pipe slot, a
+        // 16-lane AVX-512 operation taking two: half its cost), fitted by `sism calibrate` on
+        // vector chains interleaved with scalar float chains.
+        scalar_float_cycles: fam.vector_avx512 / 2.0,
     }
 }
 

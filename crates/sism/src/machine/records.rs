@@ -4,12 +4,12 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 3 (little-endian; 3: task records carry `branch_mispredicts`):
+//! Format, version 4 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`):
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 8 | magic `SISMREC\0` |
-//! | 4 | version (3) |
+//! | 4 | version (4) |
 //! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
 //! | 8 | total file size, bytes |
 //! | 4 | phase (step) count |
@@ -30,7 +30,7 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Header bytes before the first step.

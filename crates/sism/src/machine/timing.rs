@@ -196,6 +196,12 @@ impl TaskCost {
 /// integer formula's.
 pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
     let alu = c.valu.saturating_add(c.fma) as f64 * m.vector_cycles;
+    // Out of order, scalar float arithmetic also occupies the vector unit's pipes.
+    let scalar_float_pipes = if m.separate_ports {
+        c.scalar_float as f64 * m.scalar_float_cycles
+    } else {
+        0.0
+    };
     let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
     let compress = c.compress_expand as f64 * m.compress_cycles;
     let gs_lines =
@@ -208,6 +214,7 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         .scalar
         .saturating_add(c.mask)
         .saturating_add(c.scalar_alu)
+        .saturating_add(c.scalar_float)
         .saturating_add(c.scalar_branch);
     let scalar_div = c.scalar_div as f64 * m.scalar_div_cycles;
     let issue = if m.separate_ports {
@@ -218,7 +225,7 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         // Out of order: the divider works beside the scalar ALUs, and dependent operations wait
         // for each other, so the task takes at least its critical path, however wide the issue.
         // A mispredicted branch refills the pipeline: nothing overlaps it.
-        (((alu + compress) / vip).ceil() + gathers)
+        (((alu + scalar_float_pipes + compress) / vip).ceil() + gathers)
             .max((mem / vip).ceil())
             .max(scalar_alu.max(scalar_div).ceil())
             .max(chain_cycles(c, m) as f64)

@@ -404,7 +404,8 @@ impl Kernel for RbsmLookup<'_> {
                     s.scalar_op(ScalarClass::Mem);
                 }
             }
-            let (valid, [x, y, z]) = map.project_lanes(s, m, q.map(|c| s.from_array_f(c)), self.shift);
+            let q = [s.from_array_f(q[0]), s.from_array_f(q[1]), s.from_array_f(q[2])];
+            let (valid, [x, y, z]) = map.project_lanes(s, m, q, self.shift);
             let (xs, ys, zs) = (s.to_array_f(x), s.to_array_f(y), s.to_array_f(z));
             let (hard, _) = plain_and_flagged(s, map, valid, x, y, z);
             // Taps: lanes without a discontinuity keep the plain test; the others run the functions.

@@ -181,15 +181,17 @@ impl FaceMap {
             s.add_f(qy, s.splat_f(shift.y)),
             s.add_f(qz, s.splat_f(shift.z)),
         ];
-        // glam's dot: (x·x' + y·y') + z·z'.
-        let dot = |a: Vec3| {
-            s.add_f(
+        // glam's dot: (x·x' + y·y') + z·z'. (A loop, not a closure: a vector operation inside a
+        // closure is compiled out of line.)
+        let f = &self.face;
+        let mut fxyz = q;
+        for (out, a) in fxyz.iter_mut().zip([f.right, f.up, f.axis]) {
+            *out = s.add_f(
                 s.add_f(s.mul_f(q[0], s.splat_f(a.x)), s.mul_f(q[1], s.splat_f(a.y))),
                 s.mul_f(q[2], s.splat_f(a.z)),
-            )
-        };
-        let f = &self.face;
-        let (fx, fy, fz) = (dot(f.right), dot(f.up), dot(f.axis));
+            );
+        }
+        let [fx, fy, fz] = fxyz;
         let zero = s.splat_f(0.0);
         let front = s.mask_and(m, s.cmp_gt_f(fz, zero));
         // Lanes behind the face divide by 1 (no infinities to carry) and are zeroed below.

@@ -73,9 +73,9 @@ pub struct OcclusionBin<'a> {
 impl Kernel for OcclusionBin<'_> {
     /// `[umbra samples tested, rows culled, samples culled, samples evaluated]` and the quads evaluated
     /// per bin-local sample.
-    type Output = ([u64; 4], Vec<u32>);
+    type Output = ([u64; 4], Vec<i32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> ([u64; 4], Vec<i32>) {
         s.begin_task(task_kind::OCCLUSION_BIN);
         let inp = self.inputs;
         let occ = self.occluders;

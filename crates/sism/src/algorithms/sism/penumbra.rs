@@ -97,7 +97,7 @@ impl PenumbraStats {
 
     /// The distribution of quads per sample from every bin's per-sample counts (bin-local order;
     /// the distribution does not depend on the order of bins).
-    pub fn set_quads_per_sample<'a>(&mut self, per_bin: impl Iterator<Item = &'a Vec<u32>> + Clone) {
+    pub fn set_quads_per_sample<'a>(&mut self, per_bin: impl Iterator<Item = &'a Vec<i32>> + Clone) {
         let reached = per_bin.flat_map(|v| v.iter()).filter(|&&n| n > 0);
         self.samples_reached = reached.clone().count() as u64;
         self.quads_per_sample = percentiles(reached.map(|&n| n as u64));
@@ -332,7 +332,7 @@ pub fn run_parts<'a, T, K, F>(
     task: F,
 ) where
     T: Send,
-    K: Kernel<Output = (BinCounts, Vec<u32>)> + Send,
+    K: Kernel<Output = (BinCounts, Vec<i32>)> + Send,
     F: Fn(&'a BinPart, &'a mut [T]) -> K + Sync,
 {
     let counters = phase.run_par(
@@ -478,9 +478,9 @@ pub fn sample_wedge_radii<S: Simd>(s: S, grid: &Grid, part: &BinPart, light: &Si
 /// each sample is tested exactly against the wedge half-width at its depth. Returns how many were
 /// packed; adds `[rows culled, samples culled]` into `culled`. `radii` are the part's
 /// [`sample_wedge_radii`]. With `reached` (part-local, one per
-/// sample), adds 1 for each packed sample: statistics only (the quads per sample), done in plain code
-/// the compiler vectorizes, so the machine model does not count it (a scalar pass over `selected` was
-/// 6% of a penumbra).
+/// sample), adds 1 for each packed sample: statistics only (the quads per sample), three vector
+/// operations a chunk, counted (a scalar pass over `selected` was 6% of a penumbra; plain code
+/// the compiler vectorized, as it was until this stop, went uncounted).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn select_in_wedge<S: Simd>(
@@ -491,7 +491,7 @@ pub fn select_in_wedge<S: Simd>(
     radii: &[f32],
     selected: &mut [i32],
     culled: &mut [u64; 2],
-    mut reached: Option<&mut [u32]>,
+    mut reached: Option<&mut [i32]>,
 ) -> usize {
     let bin = part.bin;
     let bn = &grid.bins[bin];
@@ -553,12 +553,10 @@ pub fn select_in_wedge<S: Simd>(
             let local = s.add_i(lane, s.splat_i((i - base) as i32));
             n += s.compress_store_i(&mut selected[n..], inside, local);
             if let Some(r) = reached.as_deref_mut() {
-                let bits = inside.bits() as u32;
+                // Statistics, counted as the vector work they are (a load, a masked add, a store).
                 let at = i - base;
-                let lanes = (end - i).min(16);
-                for (l, c) in r[at..at + lanes].iter_mut().enumerate() {
-                    *c += (bits >> l) & 1;
-                }
+                let c = s.mask_load_i(s.splat_i(0), m, &r[at..]);
+                s.mask_store_i(&mut r[at..], m, s.mask_add_i(c, inside, c, s.splat_i(1)));
             }
             culled[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
             i += 16;
@@ -584,7 +582,7 @@ pub struct WedgeScan<'a> {
     /// Samples selected over the quads so far.
     pub evaluated: u64,
     /// With statistics, the quads that selected each part-local sample.
-    pub reached: Option<Vec<u32>>,
+    pub reached: Option<Vec<i32>>,
 }
 
 impl<'a> WedgeScan<'a> {
@@ -608,7 +606,7 @@ impl<'a> WedgeScan<'a> {
             selected,
             culled: [0; 2],
             evaluated: 0,
-            reached: reached.then(|| vec![0u32; n]),
+            reached: reached.then(|| vec![0i32; n]),
         }
     }
 
@@ -643,7 +641,7 @@ impl<'a> WedgeScan<'a> {
 
     /// A penumbra task's output ([`run_parts`]): `[rows culled, samples culled, samples evaluated,
     /// 0]` and the quads per part-local sample.
-    pub fn output(self) -> (BinCounts, Vec<u32>) {
+    pub fn output(self) -> (BinCounts, Vec<i32>) {
         (
             [self.culled[0], self.culled[1], self.evaluated, 0, 0, 0, 0],
             self.reached.unwrap_or_default(),
@@ -769,9 +767,9 @@ pub fn bin_parts(grid: &Grid, lists: &BinLists) -> Vec<BinPart> {
 
 impl Kernel for PenumbraBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
-    type Output = (BinCounts, Vec<u32>);
+    type Output = (BinCounts, Vec<i32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<i32>) {
         s.begin_task(task_kind::PENUMBRA_BIN);
         let positions = self.part.positions(self.grid);
         let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);

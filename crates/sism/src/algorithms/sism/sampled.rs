@@ -734,9 +734,9 @@ fn disk_bases<S: Simd>(s: S, task: &SampledBin, positions: (&[f32], &[f32], &[f3
 
 impl Kernel for SampledBin<'_> {
     /// `[rows culled, samples culled, samples evaluated]` and the quads evaluated per bin-local sample.
-    type Output = (BinCounts, Vec<u32>);
+    type Output = (BinCounts, Vec<i32>);
     #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<u32>) {
+    fn run<S: Simd>(self, s: S) -> (BinCounts, Vec<i32>) {
         s.begin_task(task_kind::SAMPLED_BIN);
         let positions = self.part.positions(self.grid);
         let n_samples = positions.0.len();
