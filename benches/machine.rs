@@ -96,7 +96,10 @@ fn main() {
     let (sim, report) = timed(|| simulate(&records, &config));
     let accesses = report.frame.memory.accesses;
     let c = &report.frame.counters;
-    let (vector, scalar) = (c.vector_ops as f64, (c.scalar + c.mask) as f64);
+    let (vector, scalar) = (
+        c.vector_ops as f64,
+        c.instructions().saturating_sub(c.vector_ops) as f64,
+    );
     let mips = |s: f64| (vector + scalar) / s / 1e6;
 
     // The sweep, on one host thread so the two ways compare per configuration.

@@ -304,7 +304,9 @@ pub fn render_on_machine(
     let canonical_seconds = t1.elapsed().as_secs_f64();
     let c = &report.frame.counters;
     let vector = c.vector_ops as f64;
-    let scalar = (c.scalar + c.mask) as f64;
+    // Every scalar class (integer, float, divides, branches, memory) and the mask instructions: all
+    // instructions but the vector ones (until this stop only the declared `scalar` and masks).
+    let scalar = c.instructions().saturating_sub(c.vector_ops) as f64;
     result
         .stats
         .stat(
