@@ -626,21 +626,37 @@ impl<const CHAINS: usize> Kernel for AluK<CHAINS> {
         let c = s.splat_f(black_box(1e-7));
         let mut a = [s.splat_f(self.seed); 8];
         for _ in 0..self.iters {
-            a[0] = s.add_f(a[0], c);
-            a[1 % CHAINS] = s.mul_f(a[1 % CHAINS], k);
-            a[2 % CHAINS] = s.fmadd(a[2 % CHAINS], k, c);
-            a[3 % CHAINS] = s.add_f(a[3 % CHAINS], c);
-            a[4 % CHAINS] = s.mul_f(a[4 % CHAINS], k);
-            a[5 % CHAINS] = s.fmadd(a[5 % CHAINS], k, c);
-            a[6 % CHAINS] = s.add_f(a[6 % CHAINS], c);
-            a[7 % CHAINS] = s.fmadd(a[7 % CHAINS], k, c);
+            a = alu_round::<S, CHAINS>(s, a, k, c);
         }
-        let mut sum = a[0];
-        for v in &a[1..CHAINS] {
-            sum = s.add_f(sum, *v);
-        }
-        s.reduce_add_f(sum)
+        sum_chains(s, &a[..CHAINS])
     }
+}
+
+/// One round of the `alu` benchmarks: eight 16-lane add/mul/fma, operation `i` on chain
+/// `i % CHAINS` of `a` (`k` the multiplier, `c` the addend). [`FloatMixK`] runs the same round
+/// beside its scalar chains, so `scalar_float_cycles` is fitted against the work `vector_cycles`
+/// was.
+#[inline(always)]
+fn alu_round<S: Simd, const CHAINS: usize>(s: S, mut a: [S::F32; 8], k: S::F32, c: S::F32) -> [S::F32; 8] {
+    a[0] = s.add_f(a[0], c);
+    a[1 % CHAINS] = s.mul_f(a[1 % CHAINS], k);
+    a[2 % CHAINS] = s.fmadd(a[2 % CHAINS], k, c);
+    a[3 % CHAINS] = s.add_f(a[3 % CHAINS], c);
+    a[4 % CHAINS] = s.mul_f(a[4 % CHAINS], k);
+    a[5 % CHAINS] = s.fmadd(a[5 % CHAINS], k, c);
+    a[6 % CHAINS] = s.add_f(a[6 % CHAINS], c);
+    a[7 % CHAINS] = s.fmadd(a[7 % CHAINS], k, c);
+    a
+}
+
+/// The sum of every lane of `chains` (at least one): a benchmark's result, so no chain is dead.
+#[inline(always)]
+fn sum_chains<S: Simd>(s: S, chains: &[S::F32]) -> f32 {
+    let mut sum = chains[0];
+    for v in &chains[1..] {
+        sum = s.add_f(sum, *v);
+    }
+    s.reduce_add_f(sum)
 }
 
 /// Keeps `x` in a register as an opaque value: the compiler can neither fold a chain of scalar
@@ -687,14 +703,7 @@ impl Kernel for FloatMixK {
         let vector = self.vector;
         for _ in 0..self.iters {
             if vector {
-                a[0] = s.add_f(a[0], c);
-                a[1] = s.mul_f(a[1], k);
-                a[2] = s.fmadd(a[2], k, c);
-                a[3] = s.add_f(a[3], c);
-                a[4] = s.mul_f(a[4], k);
-                a[5] = s.fmadd(a[5], k, c);
-                a[6] = s.add_f(a[6], c);
-                a[7] = s.fmadd(a[7], k, c);
+                a = alu_round::<S, 8>(s, a, k, c);
             }
             x0 = opaque_f32(s.s_mul(x0, sk));
             x1 = opaque_f32(s.s_add(x1, sc));
@@ -705,12 +714,7 @@ impl Kernel for FloatMixK {
             x6 = opaque_f32(s.s_mul(x6, sk));
             x7 = opaque_f32(s.s_add(x7, sc));
         }
-        let x = [x0, x1, x2, x3, x4, x5, x6, x7];
-        let mut sum = a[0];
-        for v in &a[1..] {
-            sum = s.add_f(sum, *v);
-        }
-        s.reduce_add_f(sum) + x.iter().sum::<f32>()
+        sum_chains(s, &a) + [x0, x1, x2, x3, x4, x5, x6, x7].iter().sum::<f32>()
     }
 }
 
@@ -749,11 +753,7 @@ impl Kernel for CompareSelectK {
                 m[k] = s.mask_or(inside, s.cmp_lt_f(a[k], lo));
             }
         }
-        let mut sum = a[0];
-        for v in &a[1..] {
-            sum = s.add_f(sum, *v);
-        }
-        s.reduce_add_f(sum)
+        sum_chains(s, &a)
     }
 }
 

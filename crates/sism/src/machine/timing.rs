@@ -196,12 +196,6 @@ impl TaskCost {
 /// integer formula's.
 pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
     let alu = c.valu.saturating_add(c.fma) as f64 * m.vector_cycles;
-    // Out of order, scalar float arithmetic also occupies the vector unit's pipes.
-    let scalar_float_pipes = if m.separate_ports {
-        c.scalar_float as f64 * m.scalar_float_cycles
-    } else {
-        0.0
-    };
     let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
     let compress = c.compress_expand as f64 * m.compress_cycles;
     let gs_lines =
@@ -222,6 +216,8 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         // does, not a scalar ALU's.
         let mem = mem + c.scalar_mem as f64 * m.load_store_cycles;
         let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
+        // Scalar float arithmetic also occupies the vector unit's pipes.
+        let scalar_float_pipes = c.scalar_float as f64 * m.scalar_float_cycles;
         // Out of order: the divider works beside the scalar ALUs, and dependent operations wait
         // for each other, so the task takes at least its critical path, however wide the issue.
         // A mispredicted branch refills the pipeline: nothing overlaps it.
