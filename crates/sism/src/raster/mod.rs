@@ -35,7 +35,7 @@ use crate::counted;
 
 use crate::exec::{task_kind, Phase};
 use crate::scene::{CameraFrame, Scene};
-use crate::vmath::lanes;
+use crate::vmath::{dot3_unfused, lanes, splat3, V3};
 
 /// Side of a screen tile, pixels. A tile is one back-end task.
 pub const TILE: u32 = 64;
@@ -318,15 +318,37 @@ struct FrontEnd {
     right: Vec3,
     up: Vec3,
     forward: Vec3,
-    /// `1 / (tan(fov_y/2) * aspect)` and `1 / tan(fov_y/2)`.
-    inv_ta: f64,
-    inv_t: f64,
-    /// Image width and height, pixels.
-    w: f64,
-    h: f64,
+    /// `1 / (tan(fov_y/2) * aspect)` and `1 / tan(fov_y/2)`, rounded once from f64.
+    inv_ta: f32,
+    inv_t: f32,
+    /// Half the image width and height, pixels (exact).
+    half_w: f32,
+    half_h: f32,
+    /// Image width and height, pixels (exact: at most [`crate::scene::MAX_PIXELS`]).
+    w: f32,
+    h: f32,
     z_near: f32,
     tiles_x: u32,
 }
+
+/// Relative rounding-error bound of the f32 screen-space area `dx1 * dy2 - dy1 * dx2` against the
+/// magnitudes of its two products: Shewchuk's `(3 + 16 ε) ε` for `orient2d` with ε = 2⁻²⁴, rounded up
+/// to 4ε. Where `|area| >` this times `|dx1 * dy2| + |dy1 * dx2|`, the f32 sign is the exact sign.
+const AREA_REL_ERROR: f32 = 4.0 * f32::EPSILON / 2.0;
+/// Below this error bound the products may have underflowed (the relative bound fails): such
+/// triangles (areas under 2⁻⁷⁸ square pixels) take the exact f64 test.
+const AREA_MIN_BOUND: f32 = 1.0 / (1u128 << 100) as f32;
+/// Margins of the pixel bounding box, pixels: a constant and a share of the coordinates' magnitude,
+/// so a centre the edge functions place inside after rounding is never cut off by the box. The
+/// relative part is 8× the f32 rounding of the box's own arithmetic.
+const BOX_MARGIN: f32 = 1.0 / 64.0;
+const BOX_REL_MARGIN: f32 = 1e-6;
+
+/// A 16-lane array aligned to one cache line: the front end's lanes stored for the per-triangle
+/// emission (one line per array in the counted line stream, wherever the stack puts it).
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+struct LaneArray<T>([T; 16]);
 
 impl FrontEnd {
     fn new(frame: &CameraFrame, z_near: f32, tiles_x: u32) -> Self {
@@ -336,10 +358,12 @@ impl FrontEnd {
             right: frame.right,
             up: frame.up,
             forward: frame.forward,
-            inv_ta: 1.0 / (t * frame.aspect as f64),
-            inv_t: 1.0 / t,
-            w: frame.width as f64,
-            h: frame.height as f64,
+            inv_ta: (1.0 / (t * frame.aspect as f64)) as f32,
+            inv_t: (1.0 / t) as f32,
+            half_w: 0.5 * frame.width as f32,
+            half_h: 0.5 * frame.height as f32,
+            w: frame.width as f32,
+            h: frame.height as f32,
             z_near,
             tiles_x,
         }
@@ -356,24 +380,21 @@ impl FrontEnd {
         )
     }
 
-    /// Screen position of a view-space point with `z > 0`, pixels.
+    /// Screen position of a view-space point with `z > 0`, pixels: in f32, the operations of the
+    /// 16-lane [`FrontEnd::setup_lanes`] in the same order, so a vertex projects to the same bits on
+    /// either path (shared edges stay watertight between clipped and unclipped triangles).
     #[inline(always)]
     fn project<S: Simd>(&self, s: S, v: Vec3) -> [f32; 2] {
-        let (x, y, z) = (wide(s, v.x), wide(s, v.y), wide(s, v.z));
         [
-            narrow(
-                s,
-                s.s_mul(s.s_add(s.s_mul(s.s_div(x, z), self.inv_ta), 1.0), 0.5 * self.w),
-            ),
-            narrow(
-                s,
-                s.s_mul(s.s_sub(1.0, s.s_mul(s.s_div(y, z), self.inv_t)), 0.5 * self.h),
-            ),
+            s.s_mul(s.s_add(s.s_mul(s.s_div(v.x, v.z), self.inv_ta), 1.0), self.half_w),
+            s.s_mul(s.s_sub(1.0, s.s_mul(s.s_div(v.y, v.z), self.inv_t)), self.half_h),
         ]
     }
 
-    /// Clips, projects and bins world triangle `p` (index `original`). Returns true when it produced
-    /// at least one screen triangle. Every scalar operation is counted.
+    /// Clips, projects and bins world triangle `p` (index `original`), one triangle in scalar code:
+    /// the path of triangles crossing the near plane (and of meshes too large for 32-bit lane
+    /// indices). Returns true when it produced at least one screen triangle. Every scalar operation
+    /// is counted.
     #[inline(always)]
     fn setup<S: Simd>(&self, s: S, p: [Vec3; 3], original: u32, out: &mut FrontOut) -> bool {
         let normal = counted::normalize_or_zero(
@@ -421,14 +442,22 @@ impl FrontEnd {
                 }
             }
         }
+        let plane_dist = counted::dot(s, normal, counted::sub(s, p[0], self.eye));
         let mut any = false;
         for k in 1..n - 1 {
-            any |= self.emit(s, [poly[0], poly[k], poly[k + 1]], original, normal, p[0], out);
+            any |= self.emit(
+                s,
+                [poly[0], poly[k], poly[k + 1]],
+                original,
+                normal,
+                plane_dist,
+                out,
+            );
         }
         any
     }
 
-    /// Projects one view-space triangle in front of the near plane, culls and bins it.
+    /// Projects one view-space triangle in front of the near plane, culls and bins it (scalar).
     #[inline(always)]
     fn emit<S: Simd>(
         &self,
@@ -436,7 +465,7 @@ impl FrontEnd {
         v: [Vec3; 3],
         original: u32,
         normal: Vec3,
-        point: Vec3,
+        plane_dist: f32,
         out: &mut FrontOut,
     ) -> bool {
         let sp = [
@@ -444,62 +473,306 @@ impl FrontEnd {
             self.project(s, v[1]),
             self.project(s, v[2]),
         ];
-        let c64 = [
-            [wide(s, sp[0][0]), wide(s, sp[0][1])],
-            [wide(s, sp[1][0]), wide(s, sp[1][1])],
-            [wide(s, sp[2][0]), wide(s, sp[2][1])],
-        ];
-        let f = |i: usize, c: usize| c64[i][c];
-        let area2 = s.s_sub(
-            s.s_mul(s.s_sub(f(1, 0), f(0, 0)), s.s_sub(f(2, 1), f(0, 1))),
-            s.s_mul(s.s_sub(f(1, 1), f(0, 1)), s.s_sub(f(2, 0), f(0, 0))),
-        );
-        s.scalar_op(ScalarClass::Branch);
-        if s.s_branch(area2 == 0.0 || !area2.is_finite()) {
+        let Some(positive) = exact_area_sign(s, &sp) else {
             return false; // zero area on screen (seen edge-on): covers no pixel centre consistently
-        }
-        // Pixel centres c + 0.5 inside [min, max], widened by a small margin so a centre the edge
-        // functions place inside after rounding is never cut off by the box.
-        let range = |c: usize, size: f64| -> Option<(u32, u32)> {
-            let lo = s.s_min(s.s_min(f(0, c), f(1, c)), f(2, c));
-            let hi = s.s_max(s.s_max(f(0, c), f(1, c)), f(2, c));
-            let abs = |x: f64| s.s_fn(ScalarClass::Alu, x, f64::abs);
-            let margin = s.s_add(1.0 / 64.0, s.s_mul(1e-6, s.s_max(abs(lo), abs(hi))));
-            let first = s.s_max(
-                s.s_fn(ScalarClass::Alu, s.s_sub(s.s_sub(lo, 0.5), margin), f64::ceil),
-                0.0,
-            );
-            let last = s.s_min(
-                s.s_fn(ScalarClass::Alu, s.s_add(s.s_sub(hi, 0.5), margin), f64::floor),
-                s.s_sub(size, 1.0),
-            );
-            s.scalar_op(ScalarClass::Alu);
-            s.scalar_op(ScalarClass::Alu);
-            s.s_le(first, last).then_some((first as u32, last as u32))
         };
-        let (Some((x0, x1)), Some((y0, y1))) = (range(0, self.w), range(1, self.h)) else {
+        let (Some((x0, x1)), Some((y0, y1))) = (
+            pixel_range(s, sp[0][0], sp[1][0], sp[2][0], self.w),
+            pixel_range(s, sp[0][1], sp[1][1], sp[2][1], self.h),
+        ) else {
             return false;
         };
-        let index = out.tris.len() as u32;
-        s.s_push(
-            &mut out.tris,
+        self.bin(
+            s,
             ScreenTri {
                 v: sp,
                 z: [v[0].z, v[1].z, v[2].z],
-                positive: s.s_lt(0.0, area2),
+                positive,
                 bbox: [x0, y0, x1, y1],
                 original,
                 normal,
-                plane_dist: counted::dot(s, normal, counted::sub(s, point, self.eye)),
+                plane_dist,
             },
+            out,
         );
+        true
+    }
+
+    /// Stores screen triangle `t` and its (tile, triangle) pairs, one per tile of its box.
+    #[inline(always)]
+    fn bin<S: Simd>(&self, s: S, t: ScreenTri, out: &mut FrontOut) {
+        let index = out.tris.len() as u32;
+        let [x0, y0, x1, y1] = t.bbox;
+        s.s_push(&mut out.tris, t);
         for ty in y0 / TILE..=y1 / TILE {
             for tx in x0 / TILE..=x1 / TILE {
                 s.s_push(&mut out.pairs, (s.s_add(s.s_mul(ty, self.tiles_x), tx), index));
             }
         }
-        true
     }
+
+    /// The front end of triangles `first..first + n` (`n` in 1..=16) of `mesh`, whose global index
+    /// is `global + lane`, as Larrabee's renderer did its triangle setup: 16 triangles a vector.
+    /// Their corners are gathered, their normals, view-space corners, near-plane tests, projections,
+    /// screen areas and pixel boxes computed on 16 lanes; then each triangle, in source order, is
+    /// binned (whole in front of the near plane), clipped by the scalar [`FrontEnd::setup`] (crossing
+    /// it) or culled. Results are bit-identical to [`FrontEnd::setup`] on every triangle: the same
+    /// f32 operations in the same order, and screen areas whose f32 sign is not certain (slivers,
+    /// overflow) decided by the scalar path's exact f64 area.
+    #[inline(always)]
+    fn setup_lanes<S: Simd>(
+        &self,
+        s: S,
+        mesh: &crate::scene::Mesh,
+        first: usize,
+        n: usize,
+        global: usize,
+        out: &mut FrontOut,
+    ) {
+        let zero = s.splat_f(0.0);
+        let zero_i = s.splat_i(0);
+        let live = s.mask_first_n(n);
+        // Corner indices (3 gathers), then the corners' coordinates (9 gathers).
+        let flat_tris = sism_simd::as_i32(mesh.triangles.as_flattened());
+        let flat_pos = flat_positions(&mesh.positions);
+        let tri = s.mul_i(s.add_i(s.index_i(), s.splat_i(first as i32)), s.splat_i(3));
+        let mut p = [[zero; 3]; 3];
+        for (k, corner) in p.iter_mut().enumerate() {
+            let vertex = s.mask_gather_i(zero_i, live, flat_tris, s.add_i(tri, s.splat_i(k as i32)));
+            let base = s.mul_i(vertex, s.splat_i(3));
+            for (c, coord) in corner.iter_mut().enumerate() {
+                *coord = s.mask_gather_f(zero, live, flat_pos, s.add_i(base, s.splat_i(c as i32)));
+            }
+        }
+        // The unit normal, as `counted::normalize_or_zero(counted::cross(p1 - p0, p2 - p0))`.
+        let e1 = sub3(s, &p[1], &p[0]);
+        let e2 = sub3(s, &p[2], &p[0]);
+        let cr = [
+            s.sub_f(s.mul_f(e1[1], e2[2]), s.mul_f(e2[1], e1[2])),
+            s.sub_f(s.mul_f(e1[2], e2[0]), s.mul_f(e2[2], e1[0])),
+            s.sub_f(s.mul_f(e1[0], e2[1]), s.mul_f(e2[0], e1[1])),
+        ];
+        let rcp = s.div_f(s.splat_f(1.0), s.sqrt_f(dot3_unfused(s, &cr, &cr)));
+        let unit = s.mask_and(s.cmp_lt_f(rcp, s.splat_f(f32::INFINITY)), s.cmp_gt_f(rcp, zero));
+        let mut normal = [zero; 3];
+        for c in 0..3 {
+            normal[c] = s.select_f(unit, s.mul_f(cr[c], rcp), zero);
+        }
+        let flat = s.mask_and(
+            s.mask_and(s.cmp_eq_f(normal[0], zero), s.cmp_eq_f(normal[1], zero)),
+            s.cmp_eq_f(normal[2], zero),
+        );
+        // View-space corners and the near-plane tests.
+        let (eye, axes) = (
+            splat3(s, self.eye),
+            [splat3(s, self.right), splat3(s, self.up), splat3(s, self.forward)],
+        );
+        let z_near = s.splat_f(self.z_near);
+        let mut rel = [[zero; 3]; 3];
+        let mut v = [[zero; 3]; 3];
+        let mut all_in = live;
+        let mut any_in = Mask16::from_bits(0);
+        for k in 0..3 {
+            rel[k] = sub3(s, &p[k], &eye);
+            for a in 0..3 {
+                v[k][a] = dot3_unfused(s, &rel[k], &axes[a]);
+            }
+            let inside = s.cmp_lt_f(z_near, v[k][2]);
+            all_in = s.mask_and(all_in, inside);
+            any_in = s.mask_or(any_in, inside);
+        }
+        let seen = s.mask_andn(flat, live);
+        let whole = s.mask_and(seen, all_in);
+        let crossing = s.mask_andn(all_in, s.mask_and(seen, any_in));
+        // Projection, as `FrontEnd::project`.
+        let (one, inv_ta, inv_t) = (s.splat_f(1.0), s.splat_f(self.inv_ta), s.splat_f(self.inv_t));
+        let (half_w, half_h) = (s.splat_f(self.half_w), s.splat_f(self.half_h));
+        let mut sx = [zero; 3];
+        let mut sy = [zero; 3];
+        for k in 0..3 {
+            let x = s.mul_f(s.div_f(v[k][0], v[k][2]), inv_ta);
+            sx[k] = s.mul_f(s.add_f(x, one), half_w);
+            let y = s.mul_f(s.div_f(v[k][1], v[k][2]), inv_t);
+            sy[k] = s.mul_f(s.sub_f(one, y), half_h);
+        }
+        // Screen area's sign with an error filter: certain lanes take the f32 sign.
+        let left = s.mul_f(s.sub_f(sx[1], sx[0]), s.sub_f(sy[2], sy[0]));
+        let right = s.mul_f(s.sub_f(sy[1], sy[0]), s.sub_f(sx[2], sx[0]));
+        let area = s.sub_f(left, right);
+        let bound = s.mul_f(s.add_f(s.abs_f(left), s.abs_f(right)), s.splat_f(AREA_REL_ERROR));
+        let certain = s.mask_and(
+            s.cmp_gt_f(s.abs_f(area), bound),
+            s.cmp_gt_f(bound, s.splat_f(AREA_MIN_BOUND)),
+        );
+        let positive = s.cmp_gt_f(area, zero);
+        // Pixel boxes, as `pixel_range`.
+        let (x0, x1, x_ok) = pixel_range_lanes(s, &sx, self.w);
+        let (y0, y1, y_ok) = pixel_range_lanes(s, &sy, self.h);
+        let boxed = s.mask_and(x_ok, y_ok);
+        let plane_dist = dot3_unfused(s, &normal, &rel[0]);
+
+        // Lanes to memory, then each triangle in source order.
+        let mut lanes_v = [[LaneArray([0.0f32; 16]); 3]; 3];
+        let mut lanes_n = [LaneArray([0.0f32; 16]); 3];
+        for k in 0..3 {
+            lanes_v[k][0] = LaneArray(s.to_array_f(sx[k]));
+            lanes_v[k][1] = LaneArray(s.to_array_f(sy[k]));
+            lanes_v[k][2] = LaneArray(s.to_array_f(v[k][2]));
+            lanes_n[k] = LaneArray(s.to_array_f(normal[k]));
+        }
+        let lanes_d = LaneArray(s.to_array_f(plane_dist));
+        let lanes_box = [
+            LaneArray(s.to_array_i(x0)),
+            LaneArray(s.to_array_i(y0)),
+            LaneArray(s.to_array_i(x1)),
+            LaneArray(s.to_array_i(y1)),
+        ];
+        for lane in 0..n {
+            let g = global + lane;
+            if s.s_branch(whole.test(lane)) {
+                let mut sp = [[0.0f32; 2]; 3];
+                for (k, corner) in sp.iter_mut().enumerate() {
+                    *corner = [s.s_load(&lanes_v[k][0].0, lane), s.s_load(&lanes_v[k][1].0, lane)];
+                }
+                let sign = if s.s_branch(certain.test(lane)) {
+                    Some(positive.test(lane))
+                } else {
+                    exact_area_sign(s, &sp)
+                };
+                let (Some(positive), true) = (sign, s.s_branch(boxed.test(lane))) else {
+                    out.triangles_culled += 1;
+                    continue;
+                };
+                let z = [
+                    s.s_load(&lanes_v[0][2].0, lane),
+                    s.s_load(&lanes_v[1][2].0, lane),
+                    s.s_load(&lanes_v[2][2].0, lane),
+                ];
+                let normal = Vec3::new(
+                    s.s_load(&lanes_n[0].0, lane),
+                    s.s_load(&lanes_n[1].0, lane),
+                    s.s_load(&lanes_n[2].0, lane),
+                );
+                let mut bbox = [0u32; 4];
+                for (b, lanes) in bbox.iter_mut().zip(&lanes_box) {
+                    *b = s.s_load(&lanes.0, lane) as u32;
+                }
+                let plane_dist = s.s_load(&lanes_d.0, lane);
+                self.bin(
+                    s,
+                    ScreenTri {
+                        v: sp,
+                        z,
+                        positive,
+                        bbox,
+                        original: g as u32,
+                        normal,
+                        plane_dist,
+                    },
+                    out,
+                );
+            } else if s.s_branch(crossing.test(lane)) {
+                let [a, b, c] = s.s_load(&mesh.triangles, first + lane);
+                let corners = [
+                    s.s_load(&mesh.positions, a as usize),
+                    s.s_load(&mesh.positions, b as usize),
+                    s.s_load(&mesh.positions, c as usize),
+                ];
+                if !self.setup(s, corners, g as u32, out) {
+                    out.triangles_culled += 1;
+                }
+            } else {
+                out.triangles_culled += 1; // degenerate in the world or wholly behind the near plane
+            }
+        }
+    }
+}
+
+/// `mesh.positions` as one flat `[x0, y0, z0, x1, …]` slice, for gathers.
+fn flat_positions(positions: &[Vec3]) -> &[f32] {
+    const _: () = assert!(
+        std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4,
+        "glam's Vec3 is three packed f32"
+    );
+    // SAFETY: glam's `Vec3` (no SIMD storage: 12 bytes, align 4, checked above) is `#[repr(C)]`
+    // `{ x: f32, y: f32, z: f32 }`, so `len` of them are `3 * len` initialised, contiguous f32s,
+    // borrowed for the same lifetime.
+    unsafe { std::slice::from_raw_parts(positions.as_ptr().cast::<f32>(), positions.len() * 3) }
+}
+
+/// `a - b` per coordinate.
+#[inline(always)]
+fn sub3<S: Simd>(s: S, a: &V3<S>, b: &V3<S>) -> V3<S> {
+    [s.sub_f(a[0], b[0]), s.sub_f(a[1], b[1]), s.sub_f(a[2], b[2])]
+}
+
+/// The exact sign of the screen area `(v1 - v0) × (v2 - v0)` of f32 corners, in f64 (the differences
+/// and products are exact there, so only the last subtraction rounds, which keeps the sign): `None`
+/// when it is zero or not finite (seen edge-on, or overflowed), else whether it is positive.
+#[inline(always)]
+fn exact_area_sign<S: Simd>(s: S, sp: &[[f32; 2]; 3]) -> Option<bool> {
+    let f = |i: usize, c: usize| wide(s, sp[i][c]);
+    let area2 = s.s_sub(
+        s.s_mul(s.s_sub(f(1, 0), f(0, 0)), s.s_sub(f(2, 1), f(0, 1))),
+        s.s_mul(s.s_sub(f(1, 1), f(0, 1)), s.s_sub(f(2, 0), f(0, 0))),
+    );
+    s.scalar_op(ScalarClass::Branch);
+    if s.s_branch(area2 == 0.0 || !area2.is_finite()) {
+        return None;
+    }
+    Some(s.s_lt(0.0, area2))
+}
+
+/// Inclusive range of pixel columns (or rows) whose centres `i + 0.5` lie in `[min, max]` of the
+/// three finite coordinates `a, b, c`, widened by the box margins and clamped to `[0, size - 1]`;
+/// `None` when empty. f32, the operations of [`pixel_range_lanes`] in the same order.
+#[inline(always)]
+fn pixel_range<S: Simd>(s: S, a: f32, b: f32, c: f32, size: f32) -> Option<(u32, u32)> {
+    let lo = s.s_min(s.s_min(a, b), c);
+    let hi = s.s_max(s.s_max(a, b), c);
+    let magnitude = s.s_max(
+        s.s_fn(ScalarClass::Float, lo, f32::abs),
+        s.s_fn(ScalarClass::Float, hi, f32::abs),
+    );
+    let margin = s.s_add(BOX_MARGIN, s.s_mul(BOX_REL_MARGIN, magnitude));
+    let first = s.s_max(
+        s.s_fn(ScalarClass::Float, s.s_sub(s.s_sub(lo, 0.5), margin), f32::ceil),
+        0.0,
+    );
+    let last = s.s_min(
+        s.s_fn(ScalarClass::Float, s.s_add(s.s_sub(hi, 0.5), margin), f32::floor),
+        s.s_sub(size, 1.0),
+    );
+    s.scalar_op(ScalarClass::Alu);
+    s.scalar_op(ScalarClass::Alu);
+    s.s_le(first, last).then_some((first as u32, last as u32))
+}
+
+/// [`pixel_range`] on 16 lanes: first and last pixel (valid where the mask is set) and the mask of
+/// lanes whose range is not empty.
+#[inline(always)]
+fn pixel_range_lanes<S: Simd>(s: S, c: &[S::F32; 3], size: f32) -> (S::I32, S::I32, Mask16) {
+    let lo = s.min_f(s.min_f(c[0], c[1]), c[2]);
+    let hi = s.max_f(s.max_f(c[0], c[1]), c[2]);
+    let magnitude = s.max_f(s.abs_f(lo), s.abs_f(hi));
+    let margin = s.add_f(
+        s.splat_f(BOX_MARGIN),
+        s.mul_f(s.splat_f(BOX_REL_MARGIN), magnitude),
+    );
+    let half = s.splat_f(0.5);
+    let first = s.max_f(s.ceil_f(s.sub_f(s.sub_f(lo, half), margin)), s.splat_f(0.0));
+    let last = s.min_f(
+        s.floor_f(s.add_f(s.sub_f(hi, half), margin)),
+        s.splat_f(size - 1.0),
+    );
+    let ok = s.cmp_le_f(first, last);
+    // Where `ok`, 0 <= first <= last <= size - 1: exact small integers. Elsewhere the values are
+    // unused; the clamps keep the conversions in range anyway.
+    (
+        s.cvtt_f_i(s.min_f(first, s.splat_f(size))),
+        s.cvtt_f_i(s.max_f(last, s.splat_f(-1.0))),
+        ok,
+    )
 }
 
 /// What one front-end chunk produces.
@@ -529,24 +802,34 @@ impl Kernel for FrontEndKernel<'_> {
     fn run<S: Simd>(self, s: S) -> FrontOut {
         s.begin_task(task_kind::RASTER_FRONT_END);
         let mut out = FrontOut::default();
-        let mut m = self.offsets.partition_point(|&o| o <= self.range.start) - 1;
-        for g in self.range.clone() {
+        let mut g = self.range.start;
+        let mut m = self.offsets.partition_point(|&o| o <= g) - 1;
+        while g < self.range.end {
             while g >= self.offsets[m + 1] {
                 m += 1;
             }
-            // The front end is scalar code, as on Larrabee's cores between vector kernels: every
-            // operation counted as it runs, the corners' loads with their lines.
             let mesh = &self.scene.meshes[m];
-            let [a, b, c] = s.s_load(&mesh.triangles, g - self.offsets[m]);
-            let corners = [
-                s.s_load(&mesh.positions, a as usize),
-                s.s_load(&mesh.positions, b as usize),
-                s.s_load(&mesh.positions, c as usize),
-            ];
-            out.triangles_in += 1;
-            if !self.front.setup(s, corners, g as u32, &mut out) {
-                out.triangles_culled += 1;
+            let first = g - self.offsets[m];
+            // 16 triangles of one mesh at a time (fewer at a mesh's or the chunk's end).
+            let n = (self.offsets[m + 1].min(self.range.end) - g).min(16);
+            out.triangles_in += n as u64;
+            // Lane indices are i32: a mesh with more coordinates than that takes the scalar path.
+            if s.s_branch(mesh.positions.len() * 3 <= i32::MAX as usize) {
+                self.front.setup_lanes(s, mesh, first, n, g, &mut out);
+            } else {
+                for lane in 0..n {
+                    let [a, b, c] = s.s_load(&mesh.triangles, first + lane);
+                    let corners = [
+                        s.s_load(&mesh.positions, a as usize),
+                        s.s_load(&mesh.positions, b as usize),
+                        s.s_load(&mesh.positions, c as usize),
+                    ];
+                    if !self.front.setup(s, corners, (g + lane) as u32, &mut out) {
+                        out.triangles_culled += 1;
+                    }
+                }
             }
+            g += n;
         }
         s.end_task();
         out
