@@ -1,11 +1,13 @@
 //! The binned, sort-middle software rasterizer in Larrabee's style (Seiler et al. 2008), for any
 //! pinhole view: the eye view (receivers, [`eye`]) now, light views (depth maps) next.
 //!
-//! 1. **Front end** (step `front_end`, fixed chunks of [`FRONT_END_CHUNK`] triangles): every scene
-//!    triangle is transformed to the view's space, clipped against the near plane `z > z_near` (a
-//!    triangle crossing it becomes one or two triangles), projected to screen space (pixel centres at
-//!    `i + 0.5`, `j + 0.5`, y down), culled when degenerate or off screen, and binned: its pixel
-//!    bounding box gives the [`TILE`]×[`TILE`] tiles it may touch.
+//! 1. **Front end** (step `front_end`, fixed chunks of [`FRONT_END_CHUNK`] triangles, 16 triangles a
+//!    vector as Larrabee's renderer did its triangle setup): every scene triangle is transformed to
+//!    the view's space, clipped against the near plane `z > z_near` (a triangle crossing it becomes
+//!    one or two triangles; these few take a scalar path), projected to screen space in f32 (pixel
+//!    centres at `i + 0.5`, `j + 0.5`, y down), culled when degenerate or off screen, and binned: its
+//!    pixel bounding box gives the [`TILE`]×[`TILE`] tiles it may touch. The screen area's sign is
+//!    taken from f32 where an error bound makes it certain and from the exact f64 area elsewhere.
 //! 2. **Tile lists** (step `tile_lists`): a counting sort of the (tile, triangle) pairs by tile, chunks
 //!    in order, so every tile's list is in triangle order whatever the host thread count.
 //! 3. **Back end** (step `tiles`, one task per tile; a tile owns its pixels): for each triangle of the
