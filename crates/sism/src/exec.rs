@@ -366,6 +366,8 @@ pub mod task_kind {
     pub const SSMM_CHAIN: u32 = 0x707;
     /// Soft shadow mip-maps: a face's receivers filtered over the chain's layers.
     pub const SSMM_LOOKUP: u32 = 0x708;
+    /// Depth map: a chunk of one face's receivers, their image-plane extent and depth range.
+    pub const DEPTH_MAP_BOUNDS: u32 = 0x709;
 
     /// Every kind, for the uniqueness test.
     pub const ALL: &[u32] = &[
@@ -400,6 +402,7 @@ pub mod task_kind {
         SCREEN_PASS,
         SSMM_CHAIN,
         SSMM_LOOKUP,
+        DEPTH_MAP_BOUNDS,
     ];
 }
 

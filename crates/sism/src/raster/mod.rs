@@ -803,7 +803,14 @@ impl Kernel for FrontEndKernel<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> FrontOut {
         s.begin_task(task_kind::RASTER_FRONT_END);
-        let mut out = FrontOut::default();
+        // Room for every triangle and a pair each (more only where triangles are clipped in two
+        // or span tiles): growing by pushes would copy the chunk's output several times, host work
+        // no counted operation stands for.
+        let mut out = FrontOut {
+            tris: Vec::with_capacity(self.range.len()),
+            pairs: Vec::with_capacity(self.range.len() + self.range.len() / 4),
+            ..FrontOut::default()
+        };
         let mut g = self.range.start;
         let mut m = self.offsets.partition_point(|&o| o <= g) - 1;
         while g < self.range.end {

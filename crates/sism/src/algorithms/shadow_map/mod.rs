@@ -261,7 +261,10 @@ pub fn map_frame_with<T>(
 
 /// The lookup tasks of `samples` (grouped by face): per task its face, its range of samples and its
 /// part of `values`, at most [`LOOKUP_CHUNK`] samples each and never straddling a face.
-pub fn face_tasks<'v>(samples: &[SampleIn], values: &'v mut [f32]) -> Vec<(u8, Range<usize>, &'v mut [f32])> {
+pub fn face_tasks<'v>(
+    samples: &[SampleIn],
+    values: &'v mut [f32],
+) -> Vec<(u32, Range<usize>, &'v mut [f32])> {
     let mut tasks = Vec::new();
     let mut rest: &mut [f32] = values;
     let mut start = 0;

@@ -72,12 +72,16 @@ impl Default for GridParams {
 
 /// One receiver sample entering the grid: position relative to the light centre, its face and
 /// face coordinates, and the pixel it shades.
+///
+/// `repr(C)` of 4-byte fields only (no padding), so kernels may gather its words
+/// ([`SampleIn::words`]).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct SampleIn {
     /// Position relative to the light centre, world units.
     pub q: Vec3,
     /// Its light face (index into the light view's faces).
-    pub face: u8,
+    pub face: u32,
     /// Image-plane position in its face.
     pub uv: Vec2,
     /// Depth along the face axis, world units.
@@ -86,6 +90,26 @@ pub struct SampleIn {
     pub pixel: u32,
     /// Cosine between the receiver normal and the direction to the light centre, in (0, 1].
     pub cos_theta: f32,
+}
+
+impl SampleIn {
+    /// 32-bit words per sample.
+    pub const WORDS: usize = std::mem::size_of::<SampleIn>() / 4;
+    /// Word of `q.x` within a sample (`q.y`, `q.z` follow).
+    pub const Q_WORD: usize = std::mem::offset_of!(SampleIn, q) / 4;
+
+    /// `samples` as one flat slice of 32-bit words read as `f32` (only float fields should be
+    /// read from it), for gathers.
+    pub fn words(samples: &[SampleIn]) -> &[f32] {
+        const _: () = assert!(
+            std::mem::size_of::<SampleIn>() == 36 && std::mem::align_of::<SampleIn>() == 4,
+            "SampleIn is nine 4-byte fields without padding"
+        );
+        // SAFETY: `SampleIn` is `repr(C)` of nine 4-byte fields (glam's `Vec3` and `Vec2` are
+        // `repr(C)` f32 triples and pairs), 36 bytes with no padding (checked above), so `len`
+        // samples are `9 * len` initialised, 4-aligned words; every bit pattern is a valid `f32`.
+        unsafe { std::slice::from_raw_parts(samples.as_ptr().cast::<f32>(), samples.len() * Self::WORDS) }
+    }
 }
 
 /// The grid laid over one light face.

@@ -316,7 +316,7 @@ impl Kernel for Project<'_> {
             let (uv, depth) = (glam::Vec2::new(s.s_div(f.x, f.z), s.s_div(f.y, f.z)), f.z);
             out.write(SampleIn {
                 q,
-                face,
+                face: face as u32,
                 uv,
                 depth,
                 pixel,
