@@ -26,6 +26,12 @@ pub fn dot3_unfused<S: Simd>(s: S, a: &V3<S>, b: &V3<S>) -> S::F32 {
     )
 }
 
+/// `a - b` per coordinate.
+#[inline(always)]
+pub fn sub3<S: Simd>(s: S, a: &V3<S>, b: &V3<S>) -> V3<S> {
+    [s.sub_f(a[0], b[0]), s.sub_f(a[1], b[1]), s.sub_f(a[2], b[2])]
+}
+
 /// `a × b` with fused multiply-subtracts.
 #[inline(always)]
 pub fn cross3<S: Simd>(s: S, a: V3<S>, b: V3<S>) -> V3<S> {

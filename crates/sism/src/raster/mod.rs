@@ -37,7 +37,7 @@ use crate::counted;
 
 use crate::exec::{task_kind, Phase};
 use crate::scene::{CameraFrame, Scene};
-use crate::vmath::{dot3_unfused, lanes, splat3, V3};
+use crate::vmath::{dot3_unfused, lanes, splat3, sub3};
 
 /// Side of a screen tile, pixels. A tile is one back-end task.
 pub const TILE: u32 = 64;
@@ -459,6 +459,28 @@ impl FrontEnd {
         any
     }
 
+    /// [`FrontEnd::setup`] of triangle `t` of `mesh` (global index `original`), its corners loaded
+    /// and counted; a triangle that gives no screen triangle is counted culled.
+    #[inline(always)]
+    fn setup_one<S: Simd>(
+        &self,
+        s: S,
+        mesh: &crate::scene::Mesh,
+        t: usize,
+        original: usize,
+        out: &mut FrontOut,
+    ) {
+        let [a, b, c] = s.s_load(&mesh.triangles, t);
+        let corners = [
+            s.s_load(&mesh.positions, a as usize),
+            s.s_load(&mesh.positions, b as usize),
+            s.s_load(&mesh.positions, c as usize),
+        ];
+        if !self.setup(s, corners, original as u32, out) {
+            out.triangles_culled += 1;
+        }
+    }
+
     /// Projects one view-space triangle in front of the near plane, culls and bins it (scalar).
     #[inline(always)]
     fn emit<S: Simd>(
@@ -674,15 +696,7 @@ impl FrontEnd {
                     out,
                 );
             } else if s.s_branch(crossing.test(lane)) {
-                let [a, b, c] = s.s_load(&mesh.triangles, first + lane);
-                let corners = [
-                    s.s_load(&mesh.positions, a as usize),
-                    s.s_load(&mesh.positions, b as usize),
-                    s.s_load(&mesh.positions, c as usize),
-                ];
-                if !self.setup(s, corners, g as u32, out) {
-                    out.triangles_culled += 1;
-                }
+                self.setup_one(s, mesh, first + lane, g, out);
             } else {
                 out.triangles_culled += 1; // degenerate in the world or wholly behind the near plane
             }
@@ -700,12 +714,6 @@ fn flat_positions(positions: &[Vec3]) -> &[f32] {
     // `{ x: f32, y: f32, z: f32 }`, so `len` of them are `3 * len` initialised, contiguous f32s,
     // borrowed for the same lifetime.
     unsafe { std::slice::from_raw_parts(positions.as_ptr().cast::<f32>(), positions.len() * 3) }
-}
-
-/// `a - b` per coordinate.
-#[inline(always)]
-fn sub3<S: Simd>(s: S, a: &V3<S>, b: &V3<S>) -> V3<S> {
-    [s.sub_f(a[0], b[0]), s.sub_f(a[1], b[1]), s.sub_f(a[2], b[2])]
 }
 
 /// The exact sign of the screen area `(v1 - v0) × (v2 - v0)` of f32 corners, in f64 (the differences
@@ -827,15 +835,7 @@ impl Kernel for FrontEndKernel<'_> {
                 self.front.setup_lanes(s, mesh, first, n, g, &mut out);
             } else {
                 for lane in 0..n {
-                    let [a, b, c] = s.s_load(&mesh.triangles, first + lane);
-                    let corners = [
-                        s.s_load(&mesh.positions, a as usize),
-                        s.s_load(&mesh.positions, b as usize),
-                        s.s_load(&mesh.positions, c as usize),
-                    ];
-                    if !self.front.setup(s, corners, (g + lane) as u32, &mut out) {
-                        out.triangles_culled += 1;
-                    }
+                    self.front.setup_one(s, mesh, first + lane, g + lane, &mut out);
                 }
             }
             g += n;

@@ -19,6 +19,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
+use super::face_chunks;
 use crate::algorithms::sism::grid::SampleIn;
 use crate::algorithms::sism::light_samples::LightSamples;
 use crate::algorithms::sism::light_view::LightFace;
@@ -350,39 +351,29 @@ pub fn render_maps(
 ) -> LightMaps {
     let n_faces = samples.view.faces.len();
     // Per face: largest |u|, |v| and the receivers' depth range (step `bounds`, 16 receivers a
-    // vector). The samples are grouped by face in face order (the light samples' face sort).
+    // vector, over runs of one face's samples).
     let mut extent = vec![0f32; n_faces];
     let mut z_lo = vec![f32::INFINITY; n_faces];
     let mut z_hi = vec![0f32; n_faces];
     // A face is rendered if any receiver is assigned to it, even one behind this light point
     // (its lookups still read the map).
     let mut has_receiver = vec![false; n_faces];
-    let mut chunks: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
-    let mut start = 0;
-    for (f, has) in has_receiver.iter_mut().enumerate() {
-        let end = start + samples.samples[start..].partition_point(|s| s.face as usize <= f);
-        *has = end > start;
-        let mut c = start;
-        while c < end {
-            let next = (c + BOUNDS_CHUNK).min(end);
-            chunks.push((f, c..next));
-            c = next;
-        }
-        start = end;
-    }
+    let chunks = face_chunks(&samples.samples, BOUNDS_CHUNK);
     let bounds = phase.run_par(
         "bounds",
         chunks.par_iter().map(|(f, range)| FaceBounds {
             samples: &samples.samples[range.clone()],
-            face: samples.view.faces[*f],
+            face: samples.view.faces[*f as usize],
             center: samples.light.center,
             origin,
         }),
     );
     for ((f, _), [e, lo, hi]) in chunks.iter().zip(bounds) {
-        extent[*f] = extent[*f].max(e);
-        z_lo[*f] = z_lo[*f].min(lo);
-        z_hi[*f] = z_hi[*f].max(hi);
+        let f = *f as usize;
+        has_receiver[f] = true;
+        extent[f] = extent[f].max(e);
+        z_lo[f] = z_lo[f].min(lo);
+        z_hi[f] = z_hi[f].max(hi);
     }
     let size = params.size;
     let widen = size as f32 / (size - 2 * PAD_TEXELS) as f32;

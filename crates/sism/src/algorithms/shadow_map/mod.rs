@@ -259,29 +259,40 @@ pub fn map_frame_with<T>(
     (visibility, maps.stats(map_params.size), counts)
 }
 
-/// The lookup tasks of `samples` (grouped by face): per task its face, its range of samples and its
-/// part of `values`, at most [`LOOKUP_CHUNK`] samples each and never straddling a face.
-pub fn face_tasks<'v>(
-    samples: &[SampleIn],
-    values: &'v mut [f32],
-) -> Vec<(u32, Range<usize>, &'v mut [f32])> {
-    let mut tasks = Vec::new();
-    let mut rest: &mut [f32] = values;
+/// `samples` (grouped by face) cut into runs of one face of at most `chunk` samples each: per run
+/// its face and its range of samples, in sample order.
+pub fn face_chunks(samples: &[SampleIn], chunk: usize) -> Vec<(u32, Range<usize>)> {
+    let mut chunks = Vec::new();
     let mut start = 0;
     while start < samples.len() {
         let face = samples[start].face;
         let end = start + samples[start..].partition_point(|s| s.face == face);
         let mut k = start;
         while k < end {
-            let stop = (k + LOOKUP_CHUNK).min(end);
-            let (head, tail) = std::mem::take(&mut rest).split_at_mut(stop - k);
-            tasks.push((face, k..stop, head));
-            rest = tail;
+            let stop = (k + chunk).min(end);
+            chunks.push((face, k..stop));
             k = stop;
         }
         start = end;
     }
-    tasks
+    chunks
+}
+
+/// The lookup tasks of `samples` (grouped by face): per task its face, its range of samples and its
+/// part of `values`, at most [`LOOKUP_CHUNK`] samples each and never straddling a face.
+pub fn face_tasks<'v>(
+    samples: &[SampleIn],
+    values: &'v mut [f32],
+) -> Vec<(u32, Range<usize>, &'v mut [f32])> {
+    let mut rest: &mut [f32] = values;
+    face_chunks(samples, LOOKUP_CHUNK)
+        .into_iter()
+        .map(|(face, range)| {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(range.len());
+            rest = tail;
+            (face, range, head)
+        })
+        .collect()
 }
 
 /// A shadow-map frame: light samples, depth maps from the light centre, lookups.
