@@ -133,6 +133,10 @@ pub struct FaceGrid {
     pub z_max: f32,
     /// Slices per unit of `ln(z)`: `slices / ln(z_max / z_min)`.
     pub slice_scale: f32,
+    /// Where each depth slice begins: `slice_from[k]` (`1 <= k < slices`) is the smallest depth in
+    /// slice `k` or beyond, non-decreasing in `k`; `slice_from[0]` is `-inf`, and NaN pads the array
+    /// past the last slice (and marks slices no depth reaches). See [`slice_thresholds`].
+    pub slice_from: [f32; MAX_SLICES],
     /// Sample count.
     pub samples: u32,
 }
@@ -141,15 +145,51 @@ impl FaceGrid {
     /// Depth slice of depth `z`, in `0..slices`. Monotonic in `z`, so every sample in a slice below
     /// `slice_of(z)` is nearer than `z`: skipping those slices is conservative.
     ///
-    /// Its operations are counted by `s` (a native context counts nothing): the divide, the
-    /// logarithm (a library call of some twenty operations, counted as a divide-class operation),
-    /// the max, multiply, conversion and clamp.
+    /// A branch-free binary search of [`FaceGrid::slice_from`]: `log2(slices)` rounds of a load, a
+    /// compare and a select, counted by `s` (a native context counts nothing). Equal, depth for depth,
+    /// to the logarithmic rule the thresholds were found from ([`slice_thresholds`]), without the
+    /// logarithm's library call (some twenty operations the model could only have declared).
     #[inline(always)]
     pub fn slice_of<S: Simd>(&self, s: S, z: f32, slices: u32) -> u32 {
-        let r = s.s_max(s.s_div(z, self.z_min), 1.0);
-        let l = s.s_fn(ScalarClass::Div, r, f32::ln);
-        let k = s.s_fn(ScalarClass::Alu, s.s_mul(l, self.slice_scale), |x: f32| x as i64);
-        s.s_min(s.s_max(k, 0), slices as i64 - 1) as u32
+        let mut k = 0u32;
+        let mut step = search_span(slices) / 2;
+        while step > 0 {
+            let cand = s.s_add(k, step);
+            // `z >= NaN` (the padding) is false: the search never passes the last slice.
+            let ge = s.s_le(s.s_load(&self.slice_from, cand as usize), z);
+            k = if ge { cand } else { k };
+            step /= 2;
+        }
+        k
+    }
+
+    /// [`FaceGrid::slice_of`] on 16 depths: the same search, the thresholds permuted out of one
+    /// vector when `slices <= 16` and gathered beyond. Equal lane for lane to the scalar search.
+    #[inline(always)]
+    pub fn slice_of_lanes<S: Simd>(&self, s: S, z: S::F32, slices: u32) -> S::I32 {
+        let span = search_span(slices);
+        let mut k = s.splat_i(0);
+        if span == 1 {
+            return k;
+        }
+        let small = span <= 16;
+        let table = if small {
+            s.load_f(&self.slice_from[..16])
+        } else {
+            s.splat_f(0.0)
+        };
+        let mut step = span / 2;
+        while step > 0 {
+            let cand = s.add_i(k, s.splat_i(step as i32));
+            let t = if small {
+                s.permute_f(table, cand)
+            } else {
+                s.gather_f(&self.slice_from, cand)
+            };
+            k = s.select_i(s.cmp_ge_f(z, t), cand, k);
+            step /= 2;
+        }
+        k
     }
 
     /// Near-plane distance of the face for clipping occluders, world units: a tiny fraction of the
@@ -197,6 +237,53 @@ impl FaceGrid {
         );
         (a, b)
     }
+}
+
+/// Most depth slices a grid may have (the `slices` parameter's range is `1..=64`).
+pub const MAX_SLICES: usize = 64;
+
+/// Entries of [`FaceGrid::slice_from`] the binary search spans: `slices` rounded up to a power of
+/// two (the entries past the last slice are NaN, which no depth reaches).
+#[inline(always)]
+fn search_span(slices: u32) -> u32 {
+    slices.clamp(1, MAX_SLICES as u32).next_power_of_two()
+}
+
+/// The depths where slices begin for a face of nearest depth `z_min` and `slice_scale` slices per
+/// unit of `ln(z)`: the slices are logarithmically spaced, slice `k` holding the depths with
+/// `floor(ln(max(z / z_min, 1)) * slice_scale) = k` (clamped to `0..slices`). Each threshold is the
+/// smallest f32 depth the rule puts at `k` or beyond, found by bisection on the depth's bits, so
+/// [`FaceGrid::slice_of`]'s search returns, for every depth, the slice the rule gives (the rule is
+/// monotonic; the thresholds are made non-decreasing besides, so the search is monotonic whatever
+/// the float library's logarithm does in its last ulp).
+pub fn slice_thresholds(z_min: f32, slice_scale: f32, slices: u32) -> [f32; MAX_SLICES] {
+    let slices = slices.clamp(1, MAX_SLICES as u32);
+    let rule = |z: f32| -> u32 {
+        let k = ((z / z_min).max(1.0).ln() * slice_scale) as i64;
+        k.clamp(0, slices as i64 - 1) as u32
+    };
+    let mut t = [f32::NAN; MAX_SLICES];
+    t[0] = f32::NEG_INFINITY;
+    for k in 1..slices {
+        if rule(f32::INFINITY) < k {
+            break;
+        }
+        // Non-negative floats order as their bits: bisect for the first with rule(z) >= k.
+        let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
+        if rule(0.0) >= k {
+            hi = 0;
+        }
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if rule(f32::from_bits(mid)) >= k {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        t[k as usize] = f32::from_bits(hi).max(t[k as usize - 1]);
+    }
+    t
 }
 
 /// One bin: `bin_columns^2` columns of one face, a task of the umbra and penumbra stages.
@@ -439,6 +526,11 @@ pub fn build(phase: &mut Phase, faces: &[LightFace], samples: &[SampleIn], param
         let z_min = if count == 0 { 1.0 } else { z_min };
         let z_max = z_max.max(z_min);
         let ratio_ln = (z_max / z_min).ln();
+        let slice_scale = if ratio_ln > 0.0 {
+            params.slices as f32 / ratio_ln * (1.0 - 1e-6)
+        } else {
+            0.0
+        };
         face_grids.push(FaceGrid {
             face: *face,
             uv_min,
@@ -448,11 +540,8 @@ pub fn build(phase: &mut Phase, faces: &[LightFace], samples: &[SampleIn], param
             first_bin,
             z_min,
             z_max,
-            slice_scale: if ratio_ln > 0.0 {
-                params.slices as f32 / ratio_ln * (1.0 - 1e-6)
-            } else {
-                0.0
-            },
+            slice_scale,
+            slice_from: slice_thresholds(z_min, slice_scale, params.slices),
             samples: count as u32,
         });
         first_bin += bins.x * bins.y;
@@ -944,5 +1033,94 @@ impl Kernel for ScatterToBins<'_> {
             s.mask_scatter_i(out, m, slot, index);
         }
         s.end_task();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The logarithmic rule as the grid computed it before the thresholds.
+    fn rule(z_min: f32, scale: f32, slices: u32, z: f32) -> u32 {
+        let k = ((z / z_min).max(1.0).ln() * scale) as i64;
+        k.clamp(0, slices as i64 - 1) as u32
+    }
+
+    fn face(z_min: f32, z_max: f32, slices: u32) -> FaceGrid {
+        let ratio_ln = (z_max / z_min).ln();
+        let slice_scale = if ratio_ln > 0.0 {
+            slices as f32 / ratio_ln * (1.0 - 1e-6)
+        } else {
+            0.0
+        };
+        FaceGrid {
+            face: LightFace {
+                axis: Vec3::Z,
+                right: Vec3::X,
+                up: Vec3::Y,
+            },
+            uv_min: Vec2::ZERO,
+            cell_size: Vec2::ONE,
+            columns: UVec2::ONE,
+            bins: UVec2::ONE,
+            first_bin: 0,
+            z_min,
+            z_max,
+            slice_scale,
+            slice_from: slice_thresholds(z_min, slice_scale, slices),
+            samples: 1,
+        }
+    }
+
+    #[test]
+    fn slices_by_thresholds_equal_the_logarithmic_rule() {
+        let s = sism_simd::Portable;
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        for &(z_min, z_max) in &[
+            (0.1f32, 50.0f32),
+            (1.0, 1.0),
+            (3.0, 3.5),
+            (1e-3, 1e4),
+            (7.0, 7.000_01),
+        ] {
+            for slices in [1u32, 2, 3, 8, 16, 17, 64] {
+                let g = face(z_min, z_max, slices);
+                let mut zs = vec![0.0, -1.0, f32::NAN, f32::INFINITY, z_min, z_max, f32::MAX];
+                for _ in 0..4000 {
+                    let t = (next() >> 40) as f32 / (1u64 << 24) as f32;
+                    zs.push(z_min * (z_max / z_min).powf(t * 1.2 - 0.1));
+                }
+                // Every threshold and its neighbours in ulps.
+                for &t in &g.slice_from[1..slices as usize] {
+                    if t.is_finite() && t > 0.0 {
+                        zs.extend([
+                            f32::from_bits(t.to_bits() - 1),
+                            t,
+                            f32::from_bits(t.to_bits() + 1),
+                        ]);
+                    }
+                }
+                for chunk in zs.chunks(16) {
+                    let mut lanes = [0f32; 16];
+                    lanes[..chunk.len()].copy_from_slice(chunk);
+                    let v = s.to_array_i(g.slice_of_lanes(s, s.from_array_f(lanes), slices));
+                    for (l, &z) in chunk.iter().enumerate() {
+                        let want = rule(z_min, g.slice_scale, slices, z);
+                        assert_eq!(
+                            g.slice_of(s, z, slices),
+                            want,
+                            "z {z} z_min {z_min} slices {slices}"
+                        );
+                        assert_eq!(v[l] as u32, want, "lanes: z {z} z_min {z_min} slices {slices}");
+                    }
+                }
+            }
+        }
     }
 }

@@ -87,20 +87,21 @@ impl Kernel for OcclusionBin<'_> {
         let part = BinPart::whole(grid, bin);
         let positions = part.positions(grid);
 
-        // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1).
+        // Items of the bin ordered by (component, kind, index): triangles (kind 0), then quads (1);
+        // the last field is a quad's position in the bin's list (its prepared quad).
         // Counted: each item's index and object loads and its push, and every comparison of the
         // sort (a compare and a branch each).
         let (triangles, quads) = (occ.triangles.of(bin), occ.quads.of(bin));
-        let mut items: Vec<(u32, u8, u32)> = Vec::with_capacity(triangles.len() + quads.len());
+        let mut items: Vec<(u32, u8, u32, u32)> = Vec::with_capacity(triangles.len() + quads.len());
         for k in 0..triangles.len() {
             let t = s.s_load(triangles, k);
-            s.s_push(&mut items, (s.s_load(&inp.topo.object, t as usize), 0u8, t));
+            s.s_push(&mut items, (s.s_load(&inp.topo.object, t as usize), 0u8, t, 0));
         }
         for k in 0..quads.len() {
             let e = s.s_load(quads, k);
             s.s_push(
                 &mut items,
-                (s.s_load(&occ.silhouettes.objects, e as usize), 1u8, e),
+                (s.s_load(&occ.silhouettes.objects, e as usize), 1u8, e, k as u32),
             );
         }
         items.sort_unstable_by(|a, b| {
@@ -115,7 +116,8 @@ impl Kernel for OcclusionBin<'_> {
         let mut stamp = vec![u32::MAX; n_samples];
         let mut touched: Vec<i32> = Vec::new();
         // Its `selected` also packs the samples behind each umbra triangle.
-        let mut wedge = WedgeScan::new(s, grid, &part, inp.light, true);
+        let edges = &occ.silhouettes.edges;
+        let mut wedge = WedgeScan::new(s, grid, &part, inp.light, edges, quads, 1, true);
         let mut tested = 0u64;
         let zero = s.splat_f(0.0);
         let one_f = s.splat_f(1.0);
@@ -128,7 +130,7 @@ impl Kernel for OcclusionBin<'_> {
             while end < items.len() && items[end].0 == component {
                 end += 1;
             }
-            for &(_, kind, index) in &items[at..end] {
+            for &(_, kind, index, k) in &items[at..end] {
                 let n_hit = if kind == 0 {
                     // Umbra: +1 coverage where the sample lies behind the triangle.
                     let q = s
@@ -159,8 +161,8 @@ impl Kernel for OcclusionBin<'_> {
                     n
                 } else {
                     // Penumbra: the edge's signed term at the samples inside its wedge.
-                    let edge = &occ.silhouettes.edges[index as usize];
-                    let Some(n) = wedge.select(s, edge) else {
+                    let edge = &edges[index as usize];
+                    let Some(n) = wedge.select(s, k as usize) else {
                         continue;
                     };
                     add_edge_terms(

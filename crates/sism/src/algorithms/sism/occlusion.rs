@@ -111,6 +111,7 @@ pub const EDGE_ON_SINE: f32 = 1e-4;
 /// triangles whose outline contains the edge); `n_tri ∈ {1, 2}`, `v3[1]` is ignored when
 /// `n_tri == 1`. See the module docs for the sign convention.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct EdgeRecord {
     /// First endpoint, relative to the light centre.
     pub a: [f32; 3],
@@ -124,6 +125,22 @@ pub struct EdgeRecord {
 }
 
 impl EdgeRecord {
+    /// 32-bit words per record.
+    pub const WORDS: usize = std::mem::size_of::<EdgeRecord>() / 4;
+
+    /// `edges` as one flat slice of 32-bit words read as `f32` (only the coordinates should be read
+    /// from it; `a` is words 0..3, `b` words 3..6), for gathers of 16 records' endpoints.
+    pub fn words(edges: &[EdgeRecord]) -> &[f32] {
+        const _: () = assert!(
+            std::mem::size_of::<EdgeRecord>() == 52 && std::mem::align_of::<EdgeRecord>() == 4,
+            "EdgeRecord is thirteen 4-byte words without padding"
+        );
+        // SAFETY: `EdgeRecord` is `repr(C)` of f32 arrays and a u32, 52 bytes with no padding
+        // (checked above), so `len` records are `13 * len` initialised, 4-aligned words; every bit
+        // pattern is a valid `f32`.
+        unsafe { std::slice::from_raw_parts(edges.as_ptr().cast::<f32>(), edges.len() * Self::WORDS) }
+    }
+
     /// An edge with one adjacent triangle (third vertex `v3`): an ordinary silhouette or a
     /// boundary edge.
     pub fn single(a: [f32; 3], b: [f32; 3], v3: [f32; 3]) -> Self {

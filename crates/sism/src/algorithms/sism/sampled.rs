@@ -642,9 +642,18 @@ impl Kernel for EvaluationEstimate<'_> {
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> u64 {
         s.begin_task(task_kind::SAMPLED_BIN);
-        let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, false);
-        for &e in self.quads.iter().step_by(ESTIMATE_STRIDE) {
-            wedge.quad(s, &self.edges[e as usize]);
+        let mut wedge = WedgeScan::new(
+            s,
+            self.grid,
+            self.part,
+            self.light,
+            self.edges,
+            self.quads,
+            ESTIMATE_STRIDE,
+            false,
+        );
+        for k in 0..wedge.len() {
+            wedge.quad(s, k);
         }
         s.end_task();
         wedge.evaluated * ESTIMATE_STRIDE as u64 * self.eval_cost
@@ -749,7 +758,9 @@ impl Kernel for SampledBin<'_> {
                 vec![0; n_samples],
             );
         }
-        let mut wedge = WedgeScan::new(s, self.grid, self.part, self.light, true);
+        let mut wedge = WedgeScan::new(
+            s, self.grid, self.part, self.light, self.edges, self.quads, 1, true,
+        );
         let bases = disk_bases(s, &self, positions);
         // Occluder counts minus the centre's depth complexity, one per light point of each sample.
         // A buffer reused across the bins a host thread runs: fresh allocations of this size would
@@ -770,9 +781,9 @@ impl Kernel for SampledBin<'_> {
             LightPointEstimator::Hybrid => vec![0f32; n_samples],
             LightPointEstimator::Fraction => Vec::new(),
         };
-        for &e in self.quads {
+        for (k, &e) in self.quads.iter().enumerate() {
             let edge = &self.edges[e as usize];
-            if let Some(selected) = wedge.quad(s, edge) {
+            if let Some(selected) = wedge.quad(s, k) {
                 add_edge_points(
                     s,
                     selected,
