@@ -12,7 +12,7 @@
 
 use glam::{UVec2, Vec2, Vec3};
 use rayon::prelude::*;
-use sism_simd::{Kernel, ScalarClass, Simd};
+use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use super::binning::{bin_items, BinItems, BinLists};
 use super::grid::{FaceGrid, Grid};
@@ -465,8 +465,6 @@ impl PreparedQuads {
         let zero_i = s.splat_i(0);
         let lane = s.index_i();
         let words = EdgeRecord::words(edges);
-        // Gathers index words with i32 lanes; a record array beyond that is read lane by lane.
-        let gatherable = words.len() <= i32::MAX as usize;
         for g0 in (0..n).step_by(16) {
             let m = s.mask_first_n(n - g0);
             let e = if stride == 1 {
@@ -475,87 +473,48 @@ impl PreparedQuads {
                 let at = s.mul_i(s.add_i(lane, s.splat_i(g0 as i32)), s.splat_i(stride as i32));
                 s.mask_gather_i(zero_i, m, sism_simd::as_i32(quads), at)
             };
-            let word0 = s.mul_i(e, s.splat_i(EdgeRecord::WORDS as i32));
-            let field = |w: usize| {
-                if gatherable {
-                    s.mask_gather_f(zero, m, words, s.add_i(word0, s.splat_i(w as i32)))
-                } else {
-                    let mut v = [0f32; 16];
-                    let idx = s.to_array_i(e);
-                    for (l, x) in v.iter_mut().enumerate().take(n - g0) {
-                        *x = s.s_load(words, idx[l] as usize * EdgeRecord::WORDS + w);
-                    }
-                    s.from_array_f(v)
-                }
-            };
-            // Face coordinates of both endpoints (LightFace::to_face_counted, lane-wise).
-            let to_face = |x: S::F32, y: S::F32, z: S::F32, d: Vec3| {
-                s.add_f(
-                    s.add_f(s.mul_f(x, s.splat_f(d.x)), s.mul_f(y, s.splat_f(d.y))),
-                    s.mul_f(z, s.splat_f(d.z)),
-                )
-            };
-            let (ex, ey, ez) = (field(0), field(1), field(2));
-            let (fx, fy, fz) = (field(3), field(4), field(5));
+            // Written out, not by `map` with closures: a closure is compiled without the kernel's
+            // target features (see segment_rect_distance_lanes).
             let a = [
-                to_face(ex, ey, ez, lf.right),
-                to_face(ex, ey, ez, lf.up),
-                to_face(ex, ey, ez, lf.axis),
+                edge_word_lanes(s, m, words, e, 0),
+                edge_word_lanes(s, m, words, e, 1),
+                edge_word_lanes(s, m, words, e, 2),
             ];
             let b = [
-                to_face(fx, fy, fz, lf.right),
-                to_face(fx, fy, fz, lf.up),
-                to_face(fx, fy, fz, lf.axis),
+                edge_word_lanes(s, m, words, e, 3),
+                edge_word_lanes(s, m, words, e, 4),
+                edge_word_lanes(s, m, words, e, 5),
             ];
-            // Clipped to the face's near plane: `p` where in front, else the point of `p q` at the
-            // plane where `q` is in front; a lane with neither is dropped.
-            let clip = |p: [S::F32; 3], q: [S::F32; 3]| {
-                let keep = s.cmp_le_f(near, p[2]);
-                let can = s.cmp_le_f(near, q[2]);
-                let t = s.div_f(s.sub_f(near, p[2]), s.sub_f(q[2], p[2]));
-                let at = |i: usize| s.add_f(p[i], s.mul_f(s.sub_f(q[i], p[i]), t));
-                (
-                    [
-                        s.select_f(keep, p[0], at(0)),
-                        s.select_f(keep, p[1], at(1)),
-                        s.select_f(keep, p[2], near),
-                    ],
-                    s.mask_or(keep, can),
-                )
-            };
-            let (ca, ok_a) = clip(a, b);
-            let (cb, ok_b) = clip(b, a);
+            // Face coordinates of both endpoints (LightFace::to_face_counted, lane-wise).
+            let a = [
+                dot_lanes(s, a, lf.right),
+                dot_lanes(s, a, lf.up),
+                dot_lanes(s, a, lf.axis),
+            ];
+            let b = [
+                dot_lanes(s, b, lf.right),
+                dot_lanes(s, b, lf.up),
+                dot_lanes(s, b, lf.axis),
+            ];
+            let (ca, ok_a) = clip_lanes(s, near, a, b);
+            let (cb, ok_b) = clip_lanes(s, near, b, a);
             let mut valid = s.mask_and(m, s.mask_and(ok_a, ok_b));
             let (ax, ay) = (s.div_f(ca[0], ca[2]), s.div_f(ca[1], ca[2]));
             let (bx, by) = (s.div_f(cb[0], cb[2]), s.div_f(cb[1], cb[2]));
             let inv_near = s.div_f(one, s.min_f(ca[2], cb[2]));
             let w_bin = s.mul_f(r, s.sub_f(inv_near, inv_zmax));
             // The quad's columns in the face (FaceGrid::column_range), then in the bin.
-            let cell =
-                |p: S::F32, o: f32, size: f32| s.floor_f(s.div_f(s.sub_f(p, s.splat_f(o)), s.splat_f(size)));
-            let clamp =
-                |v: S::F32, columns: u32| s.cvtt_f_i(s.min_f(s.max_f(v, zero), s.splat_f(columns as f32)));
+            let lo = [s.sub_f(s.min_f(ax, bx), w_bin), s.sub_f(s.min_f(ay, by), w_bin)];
+            let hi = [s.add_f(s.max_f(ax, bx), w_bin), s.add_f(s.max_f(ay, by), w_bin)];
             let (o, size) = (g.uv_min, g.cell_size);
-            let lo_x = s.sub_f(s.min_f(ax, bx), w_bin);
-            let lo_y = s.sub_f(s.min_f(ay, by), w_bin);
-            let hi_x = s.add_f(s.max_f(ax, bx), w_bin);
-            let hi_y = s.add_f(s.max_f(ay, by), w_bin);
-            let c0x = s.max_i(
-                clamp(cell(lo_x, o.x, size.x), g.columns.x),
-                s.splat_i(column0.x as i32),
-            );
-            let c0y = s.max_i(
-                clamp(cell(lo_y, o.y, size.y), g.columns.y),
-                s.splat_i(column0.y as i32),
-            );
-            let c1x = s.min_i(
-                clamp(s.add_f(cell(hi_x, o.x, size.x), one), g.columns.x),
-                s.splat_i(bin_c1.x as i32),
-            );
-            let c1y = s.min_i(
-                clamp(s.add_f(cell(hi_y, o.y, size.y), one), g.columns.y),
-                s.splat_i(bin_c1.y as i32),
-            );
+            let c0x = column_lanes(s, lo[0], o.x, size.x, g.columns.x, false);
+            let c0y = column_lanes(s, lo[1], o.y, size.y, g.columns.y, false);
+            let c1x = column_lanes(s, hi[0], o.x, size.x, g.columns.x, true);
+            let c1y = column_lanes(s, hi[1], o.y, size.y, g.columns.y, true);
+            let c0x = s.max_i(c0x, s.splat_i(column0.x as i32));
+            let c0y = s.max_i(c0y, s.splat_i(column0.y as i32));
+            let c1x = s.min_i(c1x, s.splat_i(bin_c1.x as i32));
+            let c1y = s.min_i(c1y, s.splat_i(bin_c1.y as i32));
             valid = s.mask_and(valid, s.mask_and(s.cmp_lt_i(c0x, c1x), s.cmp_lt_i(c0y, c1y)));
             let (abx, aby) = (s.sub_f(bx, ax), s.sub_f(by, ay));
             let len2 = s.add_f(s.mul_f(abx, abx), s.mul_f(aby, aby));
@@ -569,44 +528,35 @@ impl PreparedQuads {
             s.store_f(&mut p.inv_near[g0..], inv_near);
 
             // Per row: the wedge test (Section 2.5), where the wedge enters the row in depth.
-            let x_at = |c: S::I32| s.add_f(s.splat_f(o.x), s.mul_f(s.cvt_i_f(c), s.splat_f(size.x)));
-            let (lo_x, hi_x) = (x_at(c0x), x_at(c1x));
-            let first_local = |cx: S::I32, row: u32| {
-                let row_cells = s.s_mul(s.s_sub(row, column0.y), bc);
-                s.mul_i(
-                    s.add_i(
-                        s.splat_i(row_cells as i32),
-                        s.sub_i(cx, s.splat_i(column0.x as i32)),
-                    ),
-                    s.splat_i(params.slices as i32),
-                )
-            };
+            // `uv_min + column * cell_size` for the columns' sides.
+            let (ox, sx) = (s.splat_f(o.x), s.splat_f(size.x));
+            let lo_x = s.add_f(ox, s.mul_f(s.cvt_i_f(c0x), sx));
+            let hi_x = s.add_f(ox, s.mul_f(s.cvt_i_f(c1x), sx));
+            let col0 = s.splat_i(column0.x as i32);
+            let last_x = s.sub_i(c1x, s.splat_i(1));
+            let slices = s.splat_i(params.slices as i32);
             for (j, row) in part.rows.clone().enumerate() {
                 let rv = s.splat_i(row as i32);
                 let act = s.mask_and(valid, s.mask_and(s.cmp_le_i(c0y, rv), s.cmp_lt_i(rv, c1y)));
                 if !s.s_branch(s.mask_any(act)) {
                     continue;
                 }
-                let y_at = |y: u32| {
-                    let f = s.s_fn(ScalarClass::Alu, y, |c| c as f32);
-                    s.splat_f(s.s_add(o.y, s.s_mul(f, size.y)))
-                };
-                let (lo_y, hi_y) = (y_at(row), y_at(s.s_add(row, 1)));
+                let y0 = s.s_fn(ScalarClass::Alu, row, |c| c as f32);
+                let y1 = s.s_fn(ScalarClass::Alu, s.s_add(row, 1), |c| c as f32);
+                let lo_y = s.splat_f(s.s_add(o.y, s.s_mul(y0, size.y)));
+                let hi_y = s.splat_f(s.s_add(o.y, s.s_mul(y1, size.y)));
                 let d = segment_rect_distance_lanes(s, [ax, ay], [bx, by], [lo_x, lo_y], [hi_x, hi_y]);
                 let inv_enter = s.sub_f(inv_near, s.div_f(d, r));
                 let cull = s.mask_and(act, s.cmp_le_f(inv_enter, inv_zmax));
                 let keep = s.mask_andn(cull, act);
                 let slice = g.slice_of_lanes(s, s.div_f(one, inv_enter), params.slices);
-                let first_cell = first_local(c0x, row);
-                let last_cell = first_local(s.sub_i(c1x, s.splat_i(1)), row);
+                // First cells of the row's first and last columns (Grid::column_first_cell, bin-local).
+                let row_cells = s.splat_i(s.s_mul(s.s_sub(row, column0.y), bc) as i32);
+                let first_cell = s.mul_i(s.add_i(row_cells, s.sub_i(c0x, col0)), slices);
+                let last_cell = s.mul_i(s.add_i(row_cells, s.sub_i(last_x, col0)), slices);
                 let first = s.mask_gather_i(zero_i, act, cells, first_cell);
                 let start = s.mask_gather_i(zero_i, keep, cells, s.add_i(first_cell, slice));
-                let end = s.mask_gather_i(
-                    zero_i,
-                    act,
-                    cells,
-                    s.add_i(last_cell, s.splat_i(params.slices as i32)),
-                );
+                let end = s.mask_gather_i(zero_i, act, cells, s.add_i(last_cell, slices));
                 let skipped = s.select_i(cull, end, s.select_i(keep, start, zero_i));
                 p.culled_samples += s.reduce_add_i(s.sub_i(skipped, s.select_i(act, first, zero_i))) as u64;
                 p.culled_rows += u64::from(s.mask_popcnt(cull));
@@ -629,9 +579,107 @@ impl PreparedQuads {
     }
 }
 
+/// Word `w` of the edge records `e` (lanes of `m`; 0 elsewhere), gathered from the records' words
+/// ([`EdgeRecord::words`]); records beyond the reach of 32-bit lane indices are read lane by lane.
+#[inline(always)]
+fn edge_word_lanes<S: Simd>(s: S, m: Mask16, words: &[f32], e: S::I32, w: usize) -> S::F32 {
+    if words.len() <= i32::MAX as usize {
+        let at = s.add_i(
+            s.mul_i(e, s.splat_i(EdgeRecord::WORDS as i32)),
+            s.splat_i(w as i32),
+        );
+        return s.mask_gather_f(s.splat_f(0.0), m, words, at);
+    }
+    let (idx, mut v) = (s.to_array_i(e), [0f32; 16]);
+    for (l, x) in v.iter_mut().enumerate() {
+        if m.0 >> l & 1 != 0 {
+            *x = s.s_load(words, idx[l] as u32 as usize * EdgeRecord::WORDS + w);
+        }
+    }
+    s.from_array_f(v)
+}
+
+/// `counted::dot(p, d)` lane-wise: `(p.x d.x + p.y d.y) + p.z d.z`, no fused multiply-adds.
+#[inline(always)]
+fn dot_lanes<S: Simd>(s: S, p: [S::F32; 3], d: Vec3) -> S::F32 {
+    s.add_f(
+        s.add_f(s.mul_f(p[0], s.splat_f(d.x)), s.mul_f(p[1], s.splat_f(d.y))),
+        s.mul_f(p[2], s.splat_f(d.z)),
+    )
+}
+
+/// `p` clipped against the near plane at depth `near` towards `q` (face coordinates, lane-wise):
+/// `p` where it is in front, else the point of `p q` on the plane; the mask is false where neither
+/// endpoint is in front. The scalar setup's operations, in its order.
+#[inline(always)]
+fn clip_lanes<S: Simd>(s: S, near: S::F32, p: [S::F32; 3], q: [S::F32; 3]) -> ([S::F32; 3], Mask16) {
+    let keep = s.cmp_le_f(near, p[2]);
+    let can = s.cmp_le_f(near, q[2]);
+    let t = s.div_f(s.sub_f(near, p[2]), s.sub_f(q[2], p[2]));
+    let x = s.add_f(p[0], s.mul_f(s.sub_f(q[0], p[0]), t));
+    let y = s.add_f(p[1], s.mul_f(s.sub_f(q[1], p[1]), t));
+    (
+        [
+            s.select_f(keep, p[0], x),
+            s.select_f(keep, p[1], y),
+            s.select_f(keep, p[2], near),
+        ],
+        s.mask_or(keep, can),
+    )
+}
+
+/// [`FaceGrid::column_range`]'s column of image coordinate `p` (lane-wise) along an axis with grid
+/// origin `o`, column size `size` and `columns` columns: `floor((p - o) / size)` (plus one for an
+/// upper end), clamped to `[0, columns]`.
+#[inline(always)]
+fn column_lanes<S: Simd>(s: S, p: S::F32, o: f32, size: f32, columns: u32, upper: bool) -> S::I32 {
+    let mut c = s.floor_f(s.div_f(s.sub_f(p, s.splat_f(o)), s.splat_f(size)));
+    if upper {
+        c = s.add_f(c, s.splat_f(1.0));
+    }
+    s.cvtt_f_i(s.min_f(s.max_f(c, s.splat_f(0.0)), s.splat_f(columns as f32)))
+}
+
+/// `|(x, y)|` lane-wise: `sqrt(x x + y y)`.
+#[inline(always)]
+fn length_lanes<S: Simd>(s: S, x: S::F32, y: S::F32) -> S::F32 {
+    s.sqrt_f(s.add_f(s.mul_f(x, x), s.mul_f(y, y)))
+}
+
+/// Distance from point `p` to the rectangle `[lo, hi]` (0 inside), lane-wise.
+#[inline(always)]
+fn point_rect_lanes<S: Simd>(s: S, p: [S::F32; 2], lo: [S::F32; 2], hi: [S::F32; 2]) -> S::F32 {
+    let zero = s.splat_f(0.0);
+    let x = s.max_f(s.max_f(s.sub_f(lo[0], p[0]), s.sub_f(p[0], hi[0])), zero);
+    let y = s.max_f(s.max_f(s.sub_f(lo[1], p[1]), s.sub_f(p[1], hi[1])), zero);
+    length_lanes(s, x, y)
+}
+
+/// Distance from point `p` to segment `a, a + d` (`len2 = |d|^2`; `has_length` where it is > 0),
+/// lane-wise.
+#[inline(always)]
+fn point_segment_lanes<S: Simd>(
+    s: S,
+    p: [S::F32; 2],
+    a: [S::F32; 2],
+    d: [S::F32; 2],
+    len2: S::F32,
+    has_length: Mask16,
+) -> S::F32 {
+    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
+    let (px, py) = (s.sub_f(p[0], a[0]), s.sub_f(p[1], a[1]));
+    let t = s.div_f(s.add_f(s.mul_f(px, d[0]), s.mul_f(py, d[1])), len2);
+    let t = s.select_f(has_length, s.clamp_f(t, zero, one), zero);
+    let x = s.sub_f(s.add_f(a[0], s.mul_f(d[0], t)), p[0]);
+    let y = s.sub_f(s.add_f(a[1], s.mul_f(d[1], t)), p[1]);
+    length_lanes(s, x, y)
+}
+
 /// [`segment_rect_distance`] on 16 lanes: the distance from segment `a b` to the rectangle
 /// `[lo, hi]` (0 where they touch), each lane with the scalar function's operations in its order,
-/// branches as selects, so each lane equals the scalar result (NaN lanes aside).
+/// branches as selects, so each lane equals the scalar result (NaN lanes aside). Helpers are
+/// functions, not closures: a closure is compiled without the kernel's target features, and its
+/// vector operations would become calls.
 #[inline(always)]
 pub fn segment_rect_distance_lanes<S: Simd>(
     s: S,
@@ -641,22 +689,9 @@ pub fn segment_rect_distance_lanes<S: Simd>(
     hi: [S::F32; 2],
 ) -> S::F32 {
     let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
-    let length = |x: S::F32, y: S::F32| s.sqrt_f(s.add_f(s.mul_f(x, x), s.mul_f(y, y)));
-    let point_rect = |p: [S::F32; 2]| {
-        let out = |i: usize| s.max_f(s.max_f(s.sub_f(lo[i], p[i]), s.sub_f(p[i], hi[i])), zero);
-        length(out(0), out(1))
-    };
     let d = [s.sub_f(b[0], a[0]), s.sub_f(b[1], a[1])];
     let len2 = s.add_f(s.mul_f(d[0], d[0]), s.mul_f(d[1], d[1]));
     let has_length = s.cmp_lt_f(zero, len2);
-    let point_segment = |p: [S::F32; 2]| {
-        let (px, py) = (s.sub_f(p[0], a[0]), s.sub_f(p[1], a[1]));
-        let t = s.div_f(s.add_f(s.mul_f(px, d[0]), s.mul_f(py, d[1])), len2);
-        let t = s.select_f(has_length, s.clamp_f(t, zero, one), zero);
-        let x = s.sub_f(s.add_f(a[0], s.mul_f(d[0], t)), p[0]);
-        let y = s.sub_f(s.add_f(a[1], s.mul_f(d[1], t)), p[1]);
-        length(x, y)
-    };
     // Liang–Barsky: does the segment cross the rectangle? (`min_f(r, t)` keeps `t` where `r` is
     // NaN, as the scalar `t.min(r)` does.)
     let (mut t0, mut t1) = (zero, one);
@@ -670,16 +705,16 @@ pub fn segment_rect_distance_lanes<S: Simd>(
         let flat = s.cmp_eq_f(p, zero);
         crosses = s.mask_andn(s.mask_and(flat, s.cmp_lt_f(q, zero)), crosses);
         let r = s.div_f(q, p);
-        let entering = s.mask_andn(flat, s.cmp_lt_f(p, zero));
-        let leaving = s.mask_andn(flat, s.mask_not(s.cmp_lt_f(p, zero)));
+        let negative = s.cmp_lt_f(p, zero);
+        let entering = s.mask_andn(flat, negative);
+        let leaving = s.mask_andn(flat, s.mask_not(negative));
         t0 = s.select_f(entering, s.max_f(r, t0), t0);
         t1 = s.select_f(leaving, s.min_f(r, t1), t1);
     }
     let touches = s.mask_and(crosses, s.cmp_le_f(t0, t1));
-    let corners = [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]];
-    let mut best = s.min_f(point_rect(b), point_rect(a));
-    for c in corners {
-        best = s.min_f(point_segment(c), best);
+    let mut best = s.min_f(point_rect_lanes(s, b, lo, hi), point_rect_lanes(s, a, lo, hi));
+    for c in [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]] {
+        best = s.min_f(point_segment_lanes(s, c, a, d, len2, has_length), best);
     }
     s.select_f(touches, zero, best)
 }
@@ -746,9 +781,10 @@ pub fn select_in_wedge<S: Simd>(
     let base = part.samples.start;
     let smp = &grid.samples;
     let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
-    let ld = |v: &[f32]| s.splat_f(s.s_load(v, k));
-    let (ax, ay, abx, aby) = (ld(&q.a_x), ld(&q.a_y), ld(&q.ab_x), ld(&q.ab_y));
-    let (inv_len2, inv_near) = (ld(&q.inv_len2), ld(&q.inv_near));
+    let (ax, ay) = (s.splat_f(s.s_load(&q.a_x, k)), s.splat_f(s.s_load(&q.a_y, k)));
+    let (abx, aby) = (s.splat_f(s.s_load(&q.ab_x, k)), s.splat_f(s.s_load(&q.ab_y, k)));
+    let inv_len2 = s.splat_f(s.s_load(&q.inv_len2, k));
+    let inv_near = s.splat_f(s.s_load(&q.inv_near, k));
     let lane = s.index_i();
     let mut n = 0usize;
     for j in 0..q.rows {
