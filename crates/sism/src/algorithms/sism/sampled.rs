@@ -989,7 +989,11 @@ fn add_edge_points<S: Simd>(
             s.scalar_op(ScalarClass::Branch);
             let row = s.s_mul(at[lane] as usize, points.n);
             for (g, reach) in reach.iter().enumerate().take(points.groups) {
-                if reach & (1 << lane) == 0 {
+                // Counted: the lane's bit test and its branch, predicted at this site (whether a
+                // group is in reach varies lane by lane: the host mispredicts it, and those cycles
+                // were outside the model while the branch was uncounted).
+                s.scalar_op(ScalarClass::Alu);
+                if !s.s_branch(reach & (1 << lane) != 0) {
                     continue;
                 }
                 let px = s.load_f(&points.x[g]);
