@@ -1063,10 +1063,13 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                 let v = s.fmadd(a, sub_x, s.fmadd(b, sub_y, c));
                 subs = s.mask_and(subs, s.cmp_ge_f(v, s.splat_f(-reach(e, 7.5))));
             }
-            for k in subs.iter() {
+            // The sub-tiles' loop: its test is a counted branch with its outcome (1 to 16 trips).
+            let mut rest = subs.0;
+            while s.s_branch(rest != 0) {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
                 counts.subtiles_tested += 1;
                 // Bit-scan, then the sub-tile's corner: shifts and masks.
-                s.scalar_op(ScalarClass::Branch);
                 let (sx, sy) = (s.s_mul(k as u32 % 4, SUB), s.s_mul(k as u32 / 4, SUB));
                 // Level 2: the 16 blocks of the sub-tile; also find blocks entirely inside. The
                 // sub-tile overlaps the box (level 1 started from the box's sub-tiles).
@@ -1084,9 +1087,12 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                     blocks = s.mask_and(blocks, s.cmp_ge_f(v, s.splat_f(-r)));
                     full = s.mask_and(full, s.cmp_gt_f(v, s.splat_f(r)));
                 }
-                for b in blocks.iter() {
+                // The blocks' loop, its test counted with its outcome as the sub-tiles' is.
+                let mut rest = blocks.0;
+                while s.s_branch(rest != 0) {
+                    let b = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
                     // Bit-scan, the block's corner, the full test.
-                    s.scalar_op(ScalarClass::Branch);
                     let bx = s.s_add(sx, (b as u32 % 4) * 4);
                     let by = s.s_add(sy, (b as u32 / 4) * 4);
                     let dx = s.add_f(pix_x, s.splat_f(bx as f32));
@@ -1109,7 +1115,7 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                         }
                         m
                     };
-                    if !s.mask_any(inside) {
+                    if !s.s_branch(s.mask_any(inside)) {
                         continue;
                     }
                     // Depth: 1/z, clamped to the vertices' range so slivers cannot overshoot.

@@ -524,7 +524,8 @@ fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: Til
             let slot = s.load_i(&tile.buf.id[base..base + 16]);
             let hit = s.cmp_ge_i(slot, s.splat_i(0));
             let mut vals = [NOTHING; 16];
-            if s.mask_any(hit) {
+            // The block's branch, counted with its outcome (a covered block or not).
+            if s.s_branch(s.mask_any(hit)) {
                 let inv_z = s.load_f(&tile.buf.inv_z[base..base + 16]);
                 let z = s.div_f(one, s.select_f(hit, inv_z, one));
                 let gx = s.mask_gather_f(zero, hit, &tile.triangles.inv_z_dx, slot);
@@ -538,9 +539,8 @@ fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: Til
             }
             let rows_here = (th - by).min(4) as usize;
             let cols_here = (tw - bx).min(4) as usize;
-            // Counted: the block's branch and extents; per texel its load from the block and its
-            // store into the map's row (each row's stored line recorded once).
-            s.s_branch(true);
+            // Counted: the block's extents; per texel its load from the block and its store into
+            // the map's row (each row's stored line recorded once).
             s.scalar_op(ScalarClass::Alu);
             s.scalar_op(ScalarClass::Alu);
             for rr in 0..rows_here {

@@ -364,7 +364,7 @@ impl Kernel for LookupTask<'_> {
                     c.taps +=
                         lanes * blocker.len() as u64 + s.mask_popcnt(found) as u64 * filter.len() as u64;
                     let mut v = s.select_f(p.valid, one, zero);
-                    if s.mask_any(found) {
+                    if s.s_branch(s.mask_any(found)) {
                         let z_avg = s.div_f(sum_z, s.select_f(found, count, one));
                         let z_avg = s.max_f(z_avg, s.splat_f(1e-30));
                         // Penumbra width w = r (z_r - z_b) / z_b at the receiver, r (1/z_b - 1/z_r)

@@ -948,7 +948,9 @@ pub fn add_edge_terms<S: Simd>(
     let zero = s.splat_f(0.0);
     let n = selected.len();
     let mut k = 0;
-    while k < n {
+    // The loop's test is a counted branch: its trip count (the quad's selected samples / 16)
+    // changes from quad to quad, and the host mispredicts its exit.
+    while s.s_lt(k, n) {
         let m = s.mask_first_n(n - k);
         let idx = s.mask_load_i(s.splat_i(0), m, &selected[k..]);
         let x = s.mask_gather_f(zero, m, xs, idx);

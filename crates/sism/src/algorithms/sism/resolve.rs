@@ -110,7 +110,7 @@ impl Kernel for Resolve<'_> {
                 let num = s.mul_f(dist, cos);
                 let den = s.mul_f(sin, s.splat_f(self.light_radius));
                 let below = s.mask_and(m, s.cmp_lt_f(num, den));
-                if s.mask_any(below) {
+                if s.s_branch(s.mask_any(below)) {
                     let d = s.min_f(s.div_f(num, s.select_f(below, den, one)), one);
                     let chord = s.sqrt_f(s.max_f(s.fnmadd(d, d, one), zero));
                     let segment = s.mul_f(

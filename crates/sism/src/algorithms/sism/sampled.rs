@@ -856,7 +856,8 @@ fn add_edge_points<S: Simd>(
     let zero = s.splat_f(0.0);
     let one = s.splat_f(1.0);
     let mut k = 0;
-    while k < selected.len() {
+    // Counted loop test: the trip count changes from quad to quad (see add_edge_terms).
+    while s.s_lt(k, selected.len()) {
         let m = s.mask_first_n(selected.len() - k);
         let idx = s.mask_load_i(s.splat_i(0), m, &selected[k..]);
         k += 16;
@@ -868,7 +869,7 @@ fn add_edge_points<S: Simd>(
         };
         let weight = s.select_f(f.valid, signed_sum(s, &f, e, one), zero);
         let active = s.cmp_ne_f(weight, zero);
-        if !s.mask_any(active) {
+        if !s.s_branch(s.mask_any(active)) {
             continue;
         }
         if !sums.is_empty() {
@@ -969,24 +970,25 @@ fn add_edge_points<S: Simd>(
         let w = s.to_array_i(s.cvtr_f_i(weight));
         let at = s.to_array_i(idx);
         let mut lanes = active.bits();
-        while lanes != 0 {
+        // The lane loop's test is a counted branch with its outcome (1 to 16 trips, data-dependent).
+        while s.s_branch(lanes != 0) {
             let lane = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
+            // Broadcasts from the lane arrays: a load each (counted as the scalar loads they are).
             let c = [
-                s.splat_f(coef[0][lane]),
-                s.splat_f(coef[1][lane]),
-                s.splat_f(coef[2][lane]),
-                s.splat_f(coef[3][lane]),
-                s.splat_f(coef[4][lane]),
-                s.splat_f(coef[5][lane]),
-                s.splat_f(coef[6][lane]),
+                s.splat_f(s.s_load(&coef[0], lane)),
+                s.splat_f(s.s_load(&coef[1], lane)),
+                s.splat_f(s.s_load(&coef[2], lane)),
+                s.splat_f(s.s_load(&coef[3], lane)),
+                s.splat_f(s.s_load(&coef[4], lane)),
+                s.splat_f(s.s_load(&coef[5], lane)),
+                s.splat_f(s.s_load(&coef[6], lane)),
             ];
-            let wv = s.splat_i(w[lane]);
-            // Counted: the lane's extraction (count trailing zeros, clear the lowest bit), the loop's
-            // branch and the row's offset.
+            let wv = s.splat_i(s.s_load(&w, lane));
+            // Counted: the lane's extraction (count trailing zeros, clear the lowest bit) and the
+            // row's offset.
             s.scalar_op(ScalarClass::Alu);
             s.scalar_op(ScalarClass::Alu);
-            s.scalar_op(ScalarClass::Branch);
             let row = s.s_mul(at[lane] as usize, points.n);
             for (g, reach) in reach.iter().enumerate().take(points.groups) {
                 // Counted: the lane's bit test and its branch, predicted at this site (whether a

@@ -357,10 +357,13 @@ impl Kernel for UmbraBin<'_> {
             let Some(tri) = triangle_in_bin(s, grid, self.bin, &q) else {
                 continue;
             };
-            for row in tri.c0.y..tri.c1.y {
+            let mut row = tri.c0.y;
+            while s.s_lt(row, tri.c1.y) {
                 let (start, end) = grid.row_span(s, self.bin, tri.c0, tri.c1, row, tri.first_slice);
+                row += 1;
                 let mut i = start;
-                while i < end {
+                // Counted loop test: a row's span is 0 to a few vectors, data-dependent.
+                while s.s_lt(i, end) {
                     let m = s.mask_first_n(end - i);
                     let x = s.mask_load_f(zero, m, &samples.x[i..]);
                     let y = s.mask_load_f(zero, m, &samples.y[i..]);

@@ -317,7 +317,7 @@ impl Kernel for SsmmTask<'_> {
                     }
                 };
                 let visiting = s.mask_popcnt(lanes) as u64;
-                if visiting == 0 {
+                if !s.s_branch(visiting != 0) {
                     continue;
                 }
                 visited += visiting;
