@@ -420,24 +420,38 @@ impl Kernel for RbsmLookup<'_> {
                 // shadowed; v_RSMSS: the test; RSMSS's speck filter only removes flags).
                 let plain = s.select_f(c, s.splat_f(1.0), s.splat_f(0.0));
                 let mut tap = s.to_array_f(plain);
-                for lane in flagged.iter() {
+                // The flagged lanes one by one. Counted: the loop's test with its outcome (how
+                // many lanes are flagged varies chunk to chunk), the bit scan, the lane's position
+                // and tap offset, and the results' stores.
+                let mut rest = flagged.0;
+                while s.s_branch(rest != 0) {
+                    let lane = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    s.scalar_op(ScalarClass::Alu);
+                    s.scalar_op(ScalarClass::Alu);
                     let (v, work) = visibility::visibility(
                         &CountedTexels { map, s },
-                        xs[lane] + w,
-                        ys[lane] + h,
-                        zs[lane],
+                        s.s_add(s.s_load(&xs, lane), w),
+                        s.s_add(s.s_load(&ys, lane), h),
+                        s.s_load(&zs, lane),
                         function,
                         &self.settings,
                     );
-                    tap[lane] = v;
-                    steps[lane] += work.steps;
+                    s.s_store(&mut tap, lane, v);
+                    let walked = s.s_add(s.s_load(&steps, lane), work.steps);
+                    s.s_store(&mut steps, lane, walked);
                 }
                 sum = s.add_f(sum, s.from_array_f(tap));
             }
             let v = s.div_f(sum, s.splat_f(taps.len() as f32));
             let v = s.select_f(valid, v, s.splat_f(0.0));
-            for lane in flagged_any.iter() {
-                out.steps.push(steps[lane]);
+            // Statistics (the walk steps of each flagged fragment), counted as the loop they are.
+            let mut rest = flagged_any.0;
+            while s.s_branch(rest != 0) {
+                let lane = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                s.scalar_op(ScalarClass::Alu);
+                s.s_push(&mut out.steps, s.s_load(&steps, lane));
             }
             let hard_f = s.select_f(hard, s.splat_f(1.0), s.splat_f(0.0));
             out.differs_from_hard += s.mask_popcnt(s.mask_and(m, s.cmp_ne_f(v, hard_f))) as u64;
