@@ -249,6 +249,13 @@ fn search_span(slices: u32) -> u32 {
     slices.clamp(1, MAX_SLICES as u32).next_power_of_two()
 }
 
+/// The logarithmic slice rule [`slice_thresholds`] reads its thresholds from: depth `z`'s slice
+/// for a face of nearest depth `z_min` and `slice_scale` slices per unit of `ln(z)`, in `0..slices`.
+pub fn log_slice(z_min: f32, slice_scale: f32, slices: u32, z: f32) -> u32 {
+    let k = ((z / z_min).max(1.0).ln() * slice_scale) as i64;
+    k.clamp(0, slices as i64 - 1) as u32
+}
+
 /// The depths where slices begin for a face of nearest depth `z_min` and `slice_scale` slices per
 /// unit of `ln(z)`: the slices are logarithmically spaced, slice `k` holding the depths with
 /// `floor(ln(max(z / z_min, 1)) * slice_scale) = k` (clamped to `0..slices`). Each threshold is the
@@ -258,10 +265,7 @@ fn search_span(slices: u32) -> u32 {
 /// the float library's logarithm does in its last ulp).
 pub fn slice_thresholds(z_min: f32, slice_scale: f32, slices: u32) -> [f32; MAX_SLICES] {
     let slices = slices.clamp(1, MAX_SLICES as u32);
-    let rule = |z: f32| -> u32 {
-        let k = ((z / z_min).max(1.0).ln() * slice_scale) as i64;
-        k.clamp(0, slices as i64 - 1) as u32
-    };
+    let rule = |z: f32| log_slice(z_min, slice_scale, slices, z);
     let mut t = [f32::NAN; MAX_SLICES];
     t[0] = f32::NEG_INFINITY;
     for k in 1..slices {
@@ -1040,12 +1044,6 @@ impl Kernel for ScatterToBins<'_> {
 mod tests {
     use super::*;
 
-    /// The logarithmic rule as the grid computed it before the thresholds.
-    fn rule(z_min: f32, scale: f32, slices: u32, z: f32) -> u32 {
-        let k = ((z / z_min).max(1.0).ln() * scale) as i64;
-        k.clamp(0, slices as i64 - 1) as u32
-    }
-
     fn face(z_min: f32, z_max: f32, slices: u32) -> FaceGrid {
         let ratio_ln = (z_max / z_min).ln();
         let slice_scale = if ratio_ln > 0.0 {
@@ -1111,7 +1109,7 @@ mod tests {
                     lanes[..chunk.len()].copy_from_slice(chunk);
                     let v = s.to_array_i(g.slice_of_lanes(s, s.from_array_f(lanes), slices));
                     for (l, &z) in chunk.iter().enumerate() {
-                        let want = rule(z_min, g.slice_scale, slices, z);
+                        let want = log_slice(z_min, g.slice_scale, slices, z);
                         assert_eq!(
                             g.slice_of(s, z, slices),
                             want,

@@ -757,14 +757,29 @@ pub fn sample_wedge_radii<S: Simd>(s: S, grid: &Grid, part: &BinPart, light: &Si
     out
 }
 
+/// A projected edge's parameters for the per-sample wedge test, in every lane: endpoint `a`,
+/// direction `ab`, `1 / |ab|^2` and `1 / z` of the edge's nearest point.
+#[derive(Clone, Copy)]
+pub struct WedgeEdge<S: Simd> {
+    /// `a.x` of the projected (clipped) edge.
+    pub a_x: S::F32,
+    /// `a.y` of the projected edge.
+    pub a_y: S::F32,
+    /// `ab.x` of the projected edge.
+    pub ab_x: S::F32,
+    /// `ab.y` of the projected edge.
+    pub ab_y: S::F32,
+    /// `1 / |ab|^2` (0 for a point).
+    pub inv_len2: S::F32,
+    /// `1 / z` of the edge's nearest point.
+    pub inv_near: S::F32,
+}
+
 /// Packs into `selected` (part-local indices, by compress-store) the part's samples inside prepared
 /// quad `k`'s wedge: each row's span from [`PreparedQuads`] (rows the wedge misses and slices nearer
-/// than where it enters the row are already left out), each sample tested exactly against the wedge
-/// half-width at its depth. Returns how many were packed; adds the samples the test rejects into
-/// `culled`. `radii` are the part's [`sample_wedge_radii`]. With `reached` (part-local, one per
-/// sample), adds 1 for each packed sample: statistics only (the quads per sample), three vector
-/// operations a chunk, counted (a scalar pass over `selected` was 6% of a penumbra; plain code
-/// the compiler vectorized, as it was until this stop, went uncounted).
+/// than where it enters the row are already left out), scanned by [`select_span`]. Returns how many
+/// were packed; adds the samples the test rejects into `culled`. `radii` are the part's
+/// [`sample_wedge_radii`]; `reached` as [`select_span`] says.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn select_in_wedge<S: Simd>(
@@ -778,46 +793,88 @@ pub fn select_in_wedge<S: Simd>(
     culled: &mut u64,
     mut reached: Option<&mut [i32]>,
 ) -> usize {
-    let base = part.samples.start;
-    let smp = &grid.samples;
-    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
-    let (ax, ay) = (s.splat_f(s.s_load(&q.a_x, k)), s.splat_f(s.s_load(&q.a_y, k)));
-    let (abx, aby) = (s.splat_f(s.s_load(&q.ab_x, k)), s.splat_f(s.s_load(&q.ab_y, k)));
-    let inv_len2 = s.splat_f(s.s_load(&q.inv_len2, k));
-    let inv_near = s.splat_f(s.s_load(&q.inv_near, k));
-    let lane = s.index_i();
+    let edge = WedgeEdge::<S> {
+        a_x: s.splat_f(s.s_load(&q.a_x, k)),
+        a_y: s.splat_f(s.s_load(&q.a_y, k)),
+        ab_x: s.splat_f(s.s_load(&q.ab_x, k)),
+        ab_y: s.splat_f(s.s_load(&q.ab_y, k)),
+        inv_len2: s.splat_f(s.s_load(&q.inv_len2, k)),
+        inv_near: s.splat_f(s.s_load(&q.inv_near, k)),
+    };
     let mut n = 0usize;
     for j in 0..q.rows {
         let start = s.s_load(&q.span_start, j * q.pad + k) as usize;
         let end = s.s_load(&q.span_end, j * q.pad + k) as usize;
-        let mut i = start;
-        while s.s_lt(i, end) {
-            let m = s.mask_first_n(end - i);
-            let u = s.mask_load_f(zero, m, &smp.u[i..]);
-            let v = s.mask_load_f(zero, m, &smp.v[i..]);
-            let depth = s.mask_load_f(one, m, &smp.depth[i..]);
-            // Distance from the sample's image position to the projected edge, against the wedge
-            // half-width at the sample's depth.
-            let px = s.sub_f(u, ax);
-            let py = s.sub_f(v, ay);
-            let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2), zero, one);
-            let dx = s.fnmadd(t, abx, px);
-            let dy = s.fnmadd(t, aby, py);
-            let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
-            let rv = s.mask_load_f(zero, m, &radii[i - base..]);
-            let w = s.mul_f(rv, s.sub_f(inv_near, s.rcp_f(depth)));
-            let inside = s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
-            let local = s.add_i(lane, s.splat_i((i - base) as i32));
-            n += s.compress_store_i(&mut selected[n..], inside, local);
-            if let Some(r) = reached.as_deref_mut() {
-                // Statistics, counted as the vector work they are (a load, a masked add, a store).
-                let at = i - base;
-                let c = s.mask_load_i(s.splat_i(0), m, &r[at..]);
-                s.mask_store_i(&mut r[at..], m, s.mask_add_i(c, inside, c, s.splat_i(1)));
-            }
-            *culled += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
-            i += 16;
+        n = select_span(
+            s,
+            part,
+            grid,
+            &edge,
+            start..end,
+            radii,
+            selected,
+            n,
+            culled,
+            reached.as_deref_mut(),
+        );
+    }
+    n
+}
+
+/// The per-sample wedge test over the sorted samples `span` of `part`: each sample's distance to the
+/// projected edge against the wedge half-width at its depth (scaled by its radius in `radii`, the
+/// part's [`sample_wedge_radii`]). Packs the part-local indices of those inside into `selected` from
+/// position `n` (by compress-store) and returns the new count; adds the rejected samples into
+/// `culled`. With `reached` (part-local, one per sample), adds 1 for each packed sample: statistics
+/// only (the quads per sample), three vector operations a chunk, counted (a scalar pass over
+/// `selected` was 6% of a penumbra; plain code the compiler vectorized went uncounted).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn select_span<S: Simd>(
+    s: S,
+    part: &BinPart,
+    grid: &Grid,
+    edge: &WedgeEdge<S>,
+    span: std::ops::Range<usize>,
+    radii: &[f32],
+    selected: &mut [i32],
+    mut n: usize,
+    culled: &mut u64,
+    mut reached: Option<&mut [i32]>,
+) -> usize {
+    let base = part.samples.start;
+    let smp = &grid.samples;
+    let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
+    let lane = s.index_i();
+    let (ax, ay, abx, aby) = (edge.a_x, edge.a_y, edge.ab_x, edge.ab_y);
+    let (inv_len2, inv_near) = (edge.inv_len2, edge.inv_near);
+    let (mut i, end) = (span.start, span.end);
+    while s.s_lt(i, end) {
+        let m = s.mask_first_n(end - i);
+        let u = s.mask_load_f(zero, m, &smp.u[i..]);
+        let v = s.mask_load_f(zero, m, &smp.v[i..]);
+        let depth = s.mask_load_f(one, m, &smp.depth[i..]);
+        // Distance from the sample's image position to the projected edge, against the wedge
+        // half-width at the sample's depth.
+        let px = s.sub_f(u, ax);
+        let py = s.sub_f(v, ay);
+        let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2), zero, one);
+        let dx = s.fnmadd(t, abx, px);
+        let dy = s.fnmadd(t, aby, py);
+        let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
+        let rv = s.mask_load_f(zero, m, &radii[i - base..]);
+        let w = s.mul_f(rv, s.sub_f(inv_near, s.rcp_f(depth)));
+        let inside = s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
+        let local = s.add_i(lane, s.splat_i((i - base) as i32));
+        n += s.compress_store_i(&mut selected[n..], inside, local);
+        if let Some(r) = reached.as_deref_mut() {
+            // Statistics, counted as the vector work they are (a load, a masked add, a store).
+            let at = i - base;
+            let c = s.mask_load_i(s.splat_i(0), m, &r[at..]);
+            s.mask_store_i(&mut r[at..], m, s.mask_add_i(c, inside, c, s.splat_i(1)));
         }
+        *culled += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
+        i += 16;
     }
     n
 }
@@ -1195,16 +1252,11 @@ mod tests {
             r,
         })
     }
-    /// Packs into `selected` (part-local indices, by compress-store) the part's samples inside quad `q`'s
-    /// wedge: rows the wedge misses are skipped, then slices nearer than where it enters the row, then
-    /// each sample is tested exactly against the wedge half-width at its depth. Returns how many were
-    /// packed; adds `[rows culled, samples culled]` into `culled`. `radii` are the part's
-    /// [`sample_wedge_radii`]. With `reached` (part-local, one per
-    /// sample), adds 1 for each packed sample: statistics only (the quads per sample), three vector
-    /// operations a chunk, counted (a scalar pass over `selected` was 6% of a penumbra; plain code
-    /// the compiler vectorized, as it was until this stop, went uncounted).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
+
+    /// The part's samples inside quad `q`'s wedge, packed into `selected` (part-local); returns how
+    /// many. The scalar setup per row (rows the wedge misses skipped, then slices nearer than where
+    /// it enters the row), each row's span then scanned by the kernel's own [`select_span`]: what
+    /// the oracle checks is the setup.
     fn select_in_wedge_scalar<S: Simd>(
         s: S,
         grid: &Grid,
@@ -1212,77 +1264,49 @@ mod tests {
         q: &QuadInBin,
         radii: &[f32],
         selected: &mut [i32],
-        culled: &mut [u64; 2],
-        mut reached: Option<&mut [i32]>,
     ) -> usize {
         let bin = part.bin;
         let bn = &grid.bins[bin];
         let g = &grid.faces[bn.face as usize];
-        let base = part.samples.start;
-        let smp = &grid.samples;
-        let (zero, one) = (s.splat_f(0.0), s.splat_f(1.0));
         let ab = q.b - q.a;
-        let (ax, ay, abx, aby) = (
-            s.splat_f(q.a.x),
-            s.splat_f(q.a.y),
-            s.splat_f(ab.x),
-            s.splat_f(ab.y),
-        );
-        let (inv_len2, inv_near) = (s.splat_f(q.inv_len2), s.splat_f(q.inv_near));
-        let lane = s.index_i();
+        let edge = WedgeEdge::<S> {
+            a_x: s.splat_f(q.a.x),
+            a_y: s.splat_f(q.a.y),
+            ab_x: s.splat_f(ab.x),
+            ab_y: s.splat_f(ab.y),
+            inv_len2: s.splat_f(q.inv_len2),
+            inv_near: s.splat_f(q.inv_near),
+        };
         let mut n = 0usize;
+        let mut culled = 0u64;
         for row in q.c0.y.max(part.rows.start)..q.c1.y.min(part.rows.end) {
-            // Wedge test for the row (Section 2.5): where the wedge enters it in depth.
             // `uv_min + column.as_vec2() * cell_size` for the row's two corners.
             let corner = |x: u32, y: u32| {
-                let f = |c: u32| s.s_fn(ScalarClass::Alu, c, |c| c as f32);
                 Vec2::new(
-                    s.s_add(g.uv_min.x, s.s_mul(f(x), g.cell_size.x)),
-                    s.s_add(g.uv_min.y, s.s_mul(f(y), g.cell_size.y)),
+                    g.uv_min.x + x as f32 * g.cell_size.x,
+                    g.uv_min.y + y as f32 * g.cell_size.y,
                 )
             };
-            let lo = corner(q.c0.x, row);
-            let hi = corner(q.c1.x, s.s_add(row, 1));
-            let d = segment_rect_distance(s, q.a, q.b, lo, hi);
-            let (first, end) = grid.row_span(s, bin, q.c0, q.c1, row, 0);
-            let inv_enter = s.s_sub(q.inv_near, s.s_div(d, q.r));
-            s.scalar_op(ScalarClass::Branch); // the rows loop
-            if s.s_le(inv_enter, s.s_div(1.0, bn.z_max)) {
-                culled[0] += 1;
-                culled[1] += (end - first) as u64;
+            let d = segment_rect_distance(s, q.a, q.b, corner(q.c0.x, row), corner(q.c1.x, row + 1));
+            let (_, end) = grid.row_span(s, bin, q.c0, q.c1, row, 0);
+            let inv_enter = q.inv_near - d / q.r;
+            if inv_enter <= 1.0 / bn.z_max {
                 continue;
             }
-            let slice = g.slice_of(s, s.s_div(1.0, inv_enter), grid.params.slices);
+            let slice = g.slice_of(s, 1.0 / inv_enter, grid.params.slices);
             let (start, _) = grid.row_span(s, bin, q.c0, q.c1, row, slice);
-            culled[1] += (start - first) as u64;
-            let mut i = start;
-            while i < end {
-                let m = s.mask_first_n(end - i);
-                let u = s.mask_load_f(zero, m, &smp.u[i..]);
-                let v = s.mask_load_f(zero, m, &smp.v[i..]);
-                let depth = s.mask_load_f(one, m, &smp.depth[i..]);
-                // Distance from the sample's image position to the projected edge, against the wedge
-                // half-width at the sample's depth.
-                let px = s.sub_f(u, ax);
-                let py = s.sub_f(v, ay);
-                let t = s.clamp_f(s.mul_f(s.fmadd(py, aby, s.mul_f(px, abx)), inv_len2), zero, one);
-                let dx = s.fnmadd(t, abx, px);
-                let dy = s.fnmadd(t, aby, py);
-                let d2 = s.fmadd(dy, dy, s.mul_f(dx, dx));
-                let rv = s.mask_load_f(zero, m, &radii[i - base..]);
-                let w = s.mul_f(rv, s.sub_f(inv_near, s.rcp_f(depth)));
-                let inside = s.mask_and(m, s.mask_and(s.cmp_gt_f(w, zero), s.cmp_le_f(d2, s.mul_f(w, w))));
-                let local = s.add_i(lane, s.splat_i((i - base) as i32));
-                n += s.compress_store_i(&mut selected[n..], inside, local);
-                if let Some(r) = reached.as_deref_mut() {
-                    // Statistics, counted as the vector work they are (a load, a masked add, a store).
-                    let at = i - base;
-                    let c = s.mask_load_i(s.splat_i(0), m, &r[at..]);
-                    s.mask_store_i(&mut r[at..], m, s.mask_add_i(c, inside, c, s.splat_i(1)));
-                }
-                culled[1] += (s.mask_popcnt(m) - s.mask_popcnt(inside)) as u64;
-                i += 16;
-            }
+            n = select_span(
+                s,
+                part,
+                grid,
+                &edge,
+                start..end,
+                radii,
+                selected,
+                n,
+                &mut culled,
+                None,
+            );
         }
         n
     }
@@ -1361,18 +1385,8 @@ mod tests {
                         for k in 0..wedge.len() {
                             let e = &edges[quads[k * stride] as usize];
                             let mut sel = vec![0i32; part.samples.len() + 16];
-                            let mut culled = [0u64; 2];
                             let want = quad_in_bin(s, &grid, bin, e, &light).map(|q| {
-                                let n = select_in_wedge_scalar(
-                                    s,
-                                    &grid,
-                                    part,
-                                    &q,
-                                    &wedge.radii,
-                                    &mut sel,
-                                    &mut culled,
-                                    None,
-                                );
+                                let n = select_in_wedge_scalar(s, &grid, part, &q, &wedge.radii, &mut sel);
                                 sel[..n].to_vec()
                             });
                             let got = wedge.quad(s, k).map(|v| v.to_vec());
