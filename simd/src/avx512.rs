@@ -101,12 +101,13 @@ fn check_idx(op: &str, m: Mask16, idx: __m512i, len: usize) {
     }
 }
 
+/// A register's lanes as an array. A bit copy, not a store intrinsic: the intrinsic is an
+/// `#[inline]` function of its own, and LLVM once left it out of line in a large kernel (CI's
+/// non-incremental build; `tests/integration/inlining.rs`), one call per conversion.
 #[inline(always)]
 fn to_i(v: __m512i) -> [i32; 16] {
-    let mut o = [0i32; 16];
-    // SAFETY: avx512f available; `o` is 64 bytes.
-    unsafe { _mm512_storeu_epi32(o.as_mut_ptr(), v) };
-    o
+    // SAFETY: __m512i and [i32; 16] have the same size and every bit pattern is valid for both.
+    unsafe { core::mem::transmute(v) }
 }
 
 /// Tree reduction with the documented lane order (i^8, i^4, i^2, i^1).
@@ -145,17 +146,18 @@ impl Simd for Avx512 {
     }
     #[inline(always)]
     fn from_array_f(self, a: [f32; 16]) -> __m512 {
-        unsafe { _mm512_loadu_ps(a.as_ptr()) }
+        // SAFETY: bit copies between types of one size (see `to_i`).
+        unsafe { core::mem::transmute(a) }
     }
     #[inline(always)]
     fn from_array_i(self, a: [i32; 16]) -> __m512i {
-        unsafe { _mm512_loadu_epi32(a.as_ptr()) }
+        // SAFETY: as above.
+        unsafe { core::mem::transmute(a) }
     }
     #[inline(always)]
     fn to_array_f(self, v: __m512) -> [f32; 16] {
-        let mut o = [0f32; 16];
-        unsafe { _mm512_storeu_ps(o.as_mut_ptr(), v) };
-        o
+        // SAFETY: as above.
+        unsafe { core::mem::transmute(v) }
     }
     #[inline(always)]
     fn to_array_i(self, v: __m512i) -> [i32; 16] {
