@@ -85,6 +85,7 @@ fn phase(name: &str, tasks: Vec<TaskRecord>) -> PhaseRecords {
     PhaseRecords {
         phase: name.into(),
         tasks,
+        serial: false,
     }
 }
 
@@ -203,6 +204,40 @@ fn greedy_scheduler_hand_case() {
         &machine(4, 4),
     );
     assert_eq!(r.phases[0].schedule, vec![(0, 3), (1, 3)]);
+}
+
+#[test]
+fn serial_steps_run_on_one_core_where_the_machine_says_so() {
+    // Four tasks of 10 cycles that the host ran one after another (a shared output buffer).
+    let tasks: Vec<TaskRecord> = (0..4).map(|_| task(valu(10), &[])).collect();
+    let step = PhaseRecords {
+        serial: true,
+        ..phase("p", tasks)
+    };
+    // Larrabee runs them in parallel (its cores share the write positions through atomics).
+    let lrb = machine(2, 4);
+    let p = &simulate(std::slice::from_ref(&step), &lrb).phases[0];
+    assert_eq!(p.core_busy, vec![20, 20]);
+    // A machine with `serial_steps` (the host presets) runs them on one core, in order.
+    let host = MachineConfig {
+        serial_steps: true,
+        ..lrb.clone()
+    };
+    let p = &simulate(std::slice::from_ref(&step), &host).phases[0];
+    assert_eq!(p.schedule, vec![(0, 10); 4]);
+    assert_eq!(p.core_busy, vec![40, 0]);
+    assert_eq!(p.cycles, 40 + host.barrier_cycles as u64);
+    // The flag survives a records file.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("records.bin");
+    save_records(
+        &path,
+        &sism::machine::records::canonical(std::slice::from_ref(&step)),
+    )
+    .unwrap();
+    let back = load_records(&path).unwrap();
+    assert!(back[0].serial);
+    assert_eq!(simulate(&back, &host).phases[0].core_busy, vec![40, 0]);
 }
 
 #[test]

@@ -328,8 +328,8 @@ fn records_are_byte_identical_across_runs_and_corrupt_ones_are_clear_errors() {
     flipped[first.len() / 2] ^= 0x10;
     assert_clean_failure(&replay(&flipped), &["checksum mismatch"]);
     let mut newer = first.clone();
-    newer[8] = 5;
-    assert_clean_failure(&replay(&newer), &["version 5 is newer"]);
+    newer[8] = 6;
+    assert_clean_failure(&replay(&newer), &["version 6 is newer"]);
     let mut older = first.clone();
     older[8] = 1;
     assert_clean_failure(&replay(&older), &["version 1 is older"]);
@@ -339,7 +339,12 @@ fn records_are_byte_identical_across_runs_and_corrupt_ones_are_clear_errors() {
     assert_clean_failure(&replay(&resealed(steps)), &["steps claimed at byte 24"]);
     // The first step's task count set to 2^62.
     let name_len = u32::from_le_bytes(first[28..32].try_into().unwrap()) as usize;
-    let count_at = 32 + name_len;
+    // The step's flags (bit 0: serial on the host), then its task count.
+    let flags_at = 32 + name_len;
+    let mut flags = first.clone();
+    flags[flags_at..flags_at + 4].copy_from_slice(&6u32.to_le_bytes());
+    assert_clean_failure(&replay(&resealed(flags)), &["unknown step flags 0x6"]);
+    let count_at = flags_at + 4;
     let mut tasks = first.clone();
     tasks[count_at..count_at + 8].copy_from_slice(&(1u64 << 62).to_le_bytes());
     assert_clean_failure(

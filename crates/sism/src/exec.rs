@@ -53,6 +53,10 @@ pub struct PhaseRecords {
     pub phase: String,
     /// The step's task records, in task order.
     pub tasks: Vec<TaskRecord>,
+    /// True when the host ran the tasks one after another on the calling thread ([`Phase::run`],
+    /// [`Phase::run_seq`]: tasks that share an output buffer), false when in parallel
+    /// ([`Phase::run_par`]). A machine with `serial_steps` replays them so.
+    pub serial: bool,
 }
 
 impl PhaseRecords {
@@ -223,17 +227,23 @@ impl Phase {
         self.exec
     }
 
-    /// The records of step `step` (`""` for the phase's only step), opened if it is not the last.
-    fn step_records(&mut self, step: &str) -> &mut Vec<TaskRecord> {
+    /// The records of step `step` (`""` for the phase's only step) run serially or not, opened if
+    /// the last records are another step's or were run the other way.
+    fn step_records(&mut self, step: &str, serial: bool) -> &mut Vec<TaskRecord> {
         let name = if step.is_empty() {
             self.name.to_string()
         } else {
             format!("{}.{step}", self.name)
         };
-        if self.steps.last().is_none_or(|s| s.phase != name) {
+        if self
+            .steps
+            .last()
+            .is_none_or(|s| s.phase != name || s.serial != serial)
+        {
             self.steps.push(PhaseRecords {
                 phase: name,
                 tasks: Vec::new(),
+                serial,
             });
         }
         &mut self.steps.last_mut().expect("just pushed").tasks
@@ -244,7 +254,7 @@ impl Phase {
         let t = Instant::now();
         let (out, records) = run_task(self.exec, k);
         self.time_step(step, t.elapsed());
-        self.file(step, 1, vec![records]);
+        self.file(step, true, vec![records]);
         out
     }
 
@@ -261,19 +271,20 @@ impl Phase {
         let (outs, records): (Vec<K::Output>, Vec<Vec<TaskRecord>>) =
             tasks.map(|k| run_task(exec, k)).unzip();
         self.time_step(step, t.elapsed());
-        self.file(step, outs.len() as u64, records);
+        self.file(step, false, records);
         outs
     }
 
     /// Runs the kernels of `tasks` one after another on the calling thread (for steps whose host code
-    /// shares one output buffer) as tasks of step `step`: the modelled chip still runs them in parallel.
+    /// shares one output buffer) as tasks of step `step`: recorded as serial (a machine with
+    /// `serial_steps` replays them one after another on one core; Larrabee in parallel).
     pub fn run_seq<K: Kernel>(&mut self, step: &str, tasks: impl IntoIterator<Item = K>) -> Vec<K::Output> {
         let exec = self.exec;
         let t = Instant::now();
         let (outs, records): (Vec<K::Output>, Vec<Vec<TaskRecord>>) =
             tasks.into_iter().map(|k| run_task(exec, k)).unzip();
         self.time_step(step, t.elapsed());
-        self.file(step, outs.len() as u64, records);
+        self.file(step, true, records);
         outs
     }
 
@@ -291,12 +302,13 @@ impl Phase {
         }
     }
 
-    fn file(&mut self, step: &str, tasks: u64, records: Vec<Vec<TaskRecord>>) {
+    fn file(&mut self, step: &str, serial: bool, records: Vec<Vec<TaskRecord>>) {
+        let tasks = records.len() as u64;
         self.tasks += tasks;
         self.modelled = true;
         // A step with no task has nothing to time (and no barrier to wait at).
         if self.exec == Exec::Counting && tasks > 0 {
-            let out = self.step_records(step);
+            let out = self.step_records(step, serial);
             out.extend(records.into_iter().flatten());
         }
     }

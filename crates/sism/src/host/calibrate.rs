@@ -1411,7 +1411,13 @@ pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
         one.barrier_cycles = 0;
         one.task_overhead_cycles = 0.0;
     }
-    let phases = timing::simulate_frame(&one, &[("warm", &x.warm), ("bench", &x.tasks)]);
+    let phases = timing::simulate_frame(
+        &one,
+        &[
+            timing::Step::parallel("warm", &x.warm),
+            timing::Step::parallel("bench", &x.tasks),
+        ],
+    );
     phases[1].cycles as f64
 }
 

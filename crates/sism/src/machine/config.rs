@@ -186,6 +186,14 @@ pub struct MachineConfig {
     /// stores included: they issue in the vector pipe) and its scalar cycles.
     #[serde(default)]
     pub separate_ports: bool,
+    /// True where a step's tasks run as its host code runs them: a step whose tasks the host runs
+    /// one after another on one thread (they share an output buffer: the grid's and the binners'
+    /// scatters, the pixel scatters, the tile lists; [`crate::exec::PhaseRecords::serial`]) is
+    /// replayed one task after another on one core. Hosts: true (the model times the code the host
+    /// runs). Larrabee: false, its cores run those tasks in parallel, as the paper's renderer does,
+    /// their shared write positions advanced by the vector fetch-adds the kernels already count.
+    #[serde(default)]
+    pub serial_steps: bool,
     /// Cache misses one hardware thread keeps in flight (1–64): a task's memory stall is divided by
     /// it before the other threads hide what they can. Larrabee's in-order cores: 1. Out-of-order
     /// hosts with prefetchers overlap many.
@@ -342,6 +350,7 @@ impl MachineConfig {
             scalar_div_cycles: 33.0,
             gather_cycles: 1.0,
             separate_ports: false,
+            serial_steps: false,
             memory_parallelism: 1.0,
             task_overhead_cycles: 0.0,
             latency_scale: 1.0,

@@ -284,6 +284,8 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         scalar_div_cycles: 4.0,
         gather_cycles: fam.gather * (1.0 + 0.25 * (slow - 1) as f64),
         separate_ports: true,
+        // The host runs its serial steps serially (see the field).
+        serial_steps: true,
         memory_parallelism: fam.memory_parallelism,
         task_overhead_cycles: fam.task_overhead,
         tlb_entries: fam.tlb_entries,

@@ -62,8 +62,15 @@ pub fn decode(records: &[PhaseRecords]) -> timing::DecodedLines {
     timing::DecodedLines::decode(&named(records))
 }
 
-fn named(records: &[PhaseRecords]) -> Vec<(&str, &[sism_simd::TaskRecord])> {
-    records.iter().map(|p| (p.phase.as_str(), &p.tasks[..])).collect()
+fn named(records: &[PhaseRecords]) -> Vec<timing::Step<'_>> {
+    records
+        .iter()
+        .map(|p| timing::Step {
+            name: p.phase.as_str(),
+            tasks: &p.tasks[..],
+            serial: p.serial,
+        })
+        .collect()
 }
 
 /// The frame's report from its steps' reports: steps grouped into phases, the frame's totals.

@@ -39,7 +39,7 @@ pub struct Param {
 }
 
 /// The on/off fields of a machine file.
-const FLAGS: &[&str] = &["separate_ports", "prefetcher"];
+const FLAGS: &[&str] = &["separate_ports", "serial_steps", "prefetcher"];
 
 /// Every parameter that can be swept, in machine-file order of [`LIMITS`], [`REAL_LIMITS`], then the
 /// flags. Fields fixed by the records (`simd_width`, `line_bytes`: one allowed value) are left out.

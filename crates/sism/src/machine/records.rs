@@ -4,7 +4,8 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 4 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`):
+//! Format, version 5 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
+//! 5: a step's flags):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -13,7 +14,7 @@
 //! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
 //! | 8 | total file size, bytes |
 //! | 4 | phase (step) count |
-//! | per step | name length (u32), name (UTF-8), task count (u64), per task its byte length (u64) and [`sism_simd::TaskRecord::to_bytes`] |
+//! | per step | name length (u32), name (UTF-8), flags (u32: bit 0 = the host ran the tasks serially, [`PhaseRecords::serial`]), task count (u64), per task its byte length (u64) and [`sism_simd::TaskRecord::to_bytes`] |
 //! | 8 | checksum of every byte before it (see [`checksum`]) |
 //!
 //! **Identical bytes.** Recorded lines are process addresses, which differ from run to run. Saving
@@ -30,14 +31,18 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
+/// Step flag bit: the host ran the step's tasks serially.
+const STEP_SERIAL: u32 = 1;
 /// Header bytes before the first step.
 const HEADER: usize = 8 + 4 + 4 + 8 + 4;
 /// Smallest encoded task record (magic, version, kind, field count, 20 one-byte counters, count,
 /// last, stream length), bytes: bounds the task count a length can claim.
 const MIN_TASK_BYTES: u64 = 27;
+/// Smallest encoded step (name length, flags, task count), bytes: bounds the step count.
+const MIN_STEP_BYTES: u64 = 4 + 4 + 8;
 /// Most steps a file may hold.
 pub const MAX_STEPS: u64 = 1 << 16;
 /// Longest step name, bytes.
@@ -89,6 +94,7 @@ pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
             .iter()
             .map(|p| PhaseRecords {
                 phase: p.phase.clone(),
+                serial: p.serial,
                 tasks: p
                     .tasks
                     .iter()
@@ -119,6 +125,7 @@ pub fn to_bytes(records: &CanonicalRecords) -> Vec<u8> {
     for p in records.iter() {
         out.extend_from_slice(&(p.phase.len() as u32).to_le_bytes());
         out.extend_from_slice(p.phase.as_bytes());
+        out.extend_from_slice(&(if p.serial { STEP_SERIAL } else { 0 }).to_le_bytes());
         out.extend_from_slice(&(p.tasks.len() as u64).to_le_bytes());
         for t in &p.tasks {
             let b = t.to_bytes();
@@ -216,10 +223,10 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
     }
     let mut r = Reader { b: body, pos: r.pos };
     let steps = r.u32("the step count")? as u64;
-    if steps > MAX_STEPS || steps > r.remaining() / 12 {
+    if steps > MAX_STEPS || steps > r.remaining() / MIN_STEP_BYTES {
         return Err(format!(
             "{steps} steps claimed at byte 24; at most {} fit the file",
-            MAX_STEPS.min(r.remaining() / 12)
+            MAX_STEPS.min(r.remaining() / MIN_STEP_BYTES)
         ));
     }
     let access_budget = (MAX_ACCESSES_PER_BYTE.saturating_mul(b.len() as u64)).min(MAX_ACCESSES);
@@ -238,6 +245,12 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
         let phase = std::str::from_utf8(r.take(len, "a step name")?)
             .map_err(|_| format!("step {s} at byte {at}: the name is not UTF-8"))?
             .to_string();
+        let step_flags = r.u32("a step's flags")?;
+        if step_flags & !STEP_SERIAL != 0 {
+            return Err(format!(
+                "step {s} ({phase}) at byte {at}: unknown step flags {step_flags:#x}"
+            ));
+        }
         let tasks = r.u64("a task count")?;
         if tasks > r.remaining() / (8 + MIN_TASK_BYTES) {
             return Err(format!(
@@ -288,7 +301,11 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
             accesses += n;
             list.push(t);
         }
-        out.push(PhaseRecords { phase, tasks: list });
+        out.push(PhaseRecords {
+            phase,
+            tasks: list,
+            serial: step_flags & STEP_SERIAL != 0,
+        });
     }
     if r.remaining() != 0 {
         return Err(format!("{} trailing bytes before the checksum", r.remaining()));

@@ -495,9 +495,15 @@ impl<'a> Machine<'a> {
 
     /// Replays one phase: schedules its tasks, then the barrier.
     pub fn run_phase(&mut self, phase: &str, tasks: &[TaskRecord]) -> PhaseReport {
+        self.run_step(Step::parallel(phase, tasks))
+    }
+
+    /// [`Machine::run_phase`] for a step that may have run serially on the host
+    /// ([`Step::serial`]).
+    pub fn run_step(&mut self, step: Step<'_>) -> PhaseReport {
         let mut ids = std::mem::take(&mut self.ids);
         let mut chunk = Vec::new();
-        let r = self.run_phase_with(phase, tasks, |task, replay| ids.map(task, &mut chunk, replay));
+        let r = self.run_phase_with(step, |task, replay| ids.map(task, &mut chunk, replay));
         self.ids = ids;
         r
     }
@@ -509,12 +515,14 @@ impl<'a> Machine<'a> {
     /// another thread.
     fn run_phase_with(
         &mut self,
-        phase: &str,
-        tasks: &[TaskRecord],
+        step: Step<'_>,
         mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])) -> TaskPages,
     ) -> PhaseReport {
+        let (phase, tasks) = (step.name, step.tasks);
         let m = self.config;
         let n = m.cores as usize;
+        // Tasks the host ran one after another: one core runs them all, in order.
+        let one_core = step.serial && m.serial_steps;
         let mut busy = vec![0u64; n];
         let (mut issue, mut exposed, mut atomics) = (0u64, 0u64, 0u64);
         let mut memory = MemoryCounts::default();
@@ -522,7 +530,11 @@ impl<'a> Machine<'a> {
         let mut schedule = Vec::with_capacity(tasks.len());
         for task in tasks {
             // Least busy core, ties to the lowest index.
-            let core = (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core");
+            let core = if one_core {
+                0
+            } else {
+                (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core")
+            };
             let mut tally = LineTally::default();
             let (cores, l3) = (&mut self.cores, &mut self.l3);
             let pages = mapped(task, &mut |lines| {
@@ -589,12 +601,35 @@ const PIPELINE_DEPTH: usize = 16;
 /// Line ids per chunk handed from the mapping thread to the cache replay.
 pub const CHUNK_LINES: usize = 1 << 16;
 
+/// One step's records as the replay takes them.
+#[derive(Clone, Copy, Debug)]
+pub struct Step<'a> {
+    /// `phase.step`.
+    pub name: &'a str,
+    /// The step's tasks, in record order.
+    pub tasks: &'a [TaskRecord],
+    /// The host ran the tasks one after another ([`crate::exec::PhaseRecords::serial`]): a machine
+    /// with `serial_steps` runs them on one core.
+    pub serial: bool,
+}
+
+impl<'a> Step<'a> {
+    /// A step whose tasks ran in parallel.
+    pub fn parallel(name: &'a str, tasks: &'a [TaskRecord]) -> Step<'a> {
+        Step {
+            name,
+            tasks,
+            serial: false,
+        }
+    }
+}
+
 /// Replays a whole frame (phases in order) on a cold chip, in two pipelined stages: one thread
 /// decodes each task's line stream and maps it to first-touch ids (record order), handing them over
 /// in chunks of [`CHUNK_LINES`]; the calling thread schedules the tasks and replays the ids through
 /// the caches. Both stages run in record order, so the result is the same as
 /// [`Machine::run_phase`] phase after phase, whatever the host's threads.
-pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) -> Vec<PhaseReport> {
+pub fn simulate_frame(config: &MachineConfig, phases: &[Step<'_>]) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
     std::thread::scope(|scope| {
@@ -602,7 +637,7 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
         let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, Option<TaskPages>)>(PIPELINE_DEPTH);
         let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
         scope.spawn(move || {
-            for task in phases.iter().flat_map(|p| p.1.iter()) {
+            for task in phases.iter().flat_map(|p| p.tasks.iter()) {
                 let mut buf = empty_rx.try_recv().unwrap_or_default();
                 buf.clear();
                 let mut alive = true;
@@ -621,8 +656,8 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[(&str, &[TaskRecord])]) 
         });
         phases
             .iter()
-            .map(|&(name, tasks)| {
-                machine.run_phase_with(name, tasks, |_, replay| loop {
+            .map(|&step| {
+                machine.run_phase_with(step, |_, replay| loop {
                     let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
                     replay(&chunk);
                     // Hand the buffer back for reuse (the mapper may have finished).
@@ -650,17 +685,17 @@ pub struct DecodedLines {
 
 impl DecodedLines {
     /// Decodes every task of `phases` (frame order) with [`LineMapper::map`], as a replay does.
-    pub fn decode(phases: &[(&str, &[TaskRecord])]) -> DecodedLines {
+    pub fn decode(phases: &[Step<'_>]) -> DecodedLines {
         let total: u64 = phases
             .iter()
-            .flat_map(|p| p.1.iter())
+            .flat_map(|p| p.tasks.iter())
             .map(|t| t.lines.len())
             .sum();
         let mut ids = Vec::with_capacity(total as usize);
         let mut offsets = vec![0];
         let (mut map, mut chunk) = (LineMapper::default(), Vec::new());
         let mut pages = Vec::new();
-        for task in phases.iter().flat_map(|p| p.1.iter()) {
+        for task in phases.iter().flat_map(|p| p.tasks.iter()) {
             pages.push(map.map(task, &mut chunk, |c| ids.extend_from_slice(c)));
             offsets.push(ids.len());
         }
@@ -672,15 +707,15 @@ impl DecodedLines {
 /// same reports, without decoding the streams again.
 pub fn simulate_decoded(
     config: &MachineConfig,
-    phases: &[(&str, &[TaskRecord])],
+    phases: &[Step<'_>],
     lines: &DecodedLines,
 ) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut task = lines.offsets.windows(2).zip(&lines.pages);
     phases
         .iter()
-        .map(|&(name, tasks)| {
-            machine.run_phase_with(name, tasks, |_, replay| {
+        .map(|&step| {
+            machine.run_phase_with(step, |_, replay| {
                 let (span, pages) = task.next().expect("one span per task of the same phases");
                 for chunk in lines.ids[span[0]..span[1]].chunks(CHUNK_LINES) {
                     replay(chunk);
