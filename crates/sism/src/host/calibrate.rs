@@ -288,7 +288,7 @@ pub const BENCHES: &[Bench] = &[
         name: "copy-l1",
         what: "loads and stores, copying within L1",
         fits: Fits::LoadStore,
-        kind: Kind::Copy { passes: 4000 },
+        kind: Kind::Copy { passes: 40_000 },
     },
     Bench {
         name: "compress",
