@@ -346,11 +346,9 @@ const AREA_MIN_BOUND: f32 = 1.0 / (1u128 << 100) as f32;
 const BOX_MARGIN: f32 = 1.0 / 64.0;
 const BOX_REL_MARGIN: f32 = 1e-6;
 
-/// A 16-lane array aligned to one cache line: the front end's lanes stored for the per-triangle
-/// emission (one line per array in the counted line stream, wherever the stack puts it).
-#[repr(C, align(64))]
-#[derive(Clone, Copy)]
-struct LaneArray<T>([T; 16]);
+// The front end's lanes stored for the per-triangle emission: one line per array in the counted
+// line stream, wherever the stack puts it.
+use crate::counted::LaneArray;
 
 impl FrontEnd {
     fn new(frame: &CameraFrame, z_near: f32, tiles_x: u32) -> Self {

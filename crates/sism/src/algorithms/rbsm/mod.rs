@@ -11,6 +11,7 @@
 
 pub mod visibility;
 
+use crate::counted::LaneArray;
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
@@ -406,12 +407,17 @@ impl Kernel for RbsmLookup<'_> {
             }
             let q = [s.from_array_f(q[0]), s.from_array_f(q[1]), s.from_array_f(q[2])];
             let (valid, [x, y, z]) = map.project_lanes(s, m, q, self.shift);
-            let (xs, ys, zs) = (s.to_array_f(x), s.to_array_f(y), s.to_array_f(z));
+            // Line-aligned lanes (counted loads and stores on the stack; see `LaneArray`).
+            let (xs, ys, zs) = (
+                LaneArray(s.to_array_f(x)),
+                LaneArray(s.to_array_f(y)),
+                LaneArray(s.to_array_f(z)),
+            );
             let (hard, _) = plain_and_flagged(s, map, valid, x, y, z);
             // Taps: lanes without a discontinuity keep the plain test; the others run the functions.
             let mut sum = s.splat_f(0.0);
             let mut flagged_any = Mask16::NONE;
-            let mut steps = [0u32; 16];
+            let mut steps = LaneArray([0u32; 16]);
             for &(w, h) in &taps {
                 let (tx, ty) = (s.add_f(x, s.splat_f(w)), s.add_f(y, s.splat_f(h)));
                 let (c, flagged) = plain_and_flagged(s, map, valid, tx, ty, z);
@@ -419,7 +425,7 @@ impl Kernel for RbsmLookup<'_> {
                 // Without a discontinuity both functions give the plain test (v_SMSR: 1 lit, 0
                 // shadowed; v_RSMSS: the test; RSMSS's speck filter only removes flags).
                 let plain = s.select_f(c, s.splat_f(1.0), s.splat_f(0.0));
-                let mut tap = s.to_array_f(plain);
+                let mut tap = LaneArray(s.to_array_f(plain));
                 // The flagged lanes one by one. Counted: the loop's test with its outcome (how
                 // many lanes are flagged varies chunk to chunk), the bit scan, the lane's position
                 // and tap offset, and the results' stores.
@@ -431,17 +437,17 @@ impl Kernel for RbsmLookup<'_> {
                     s.scalar_op(ScalarClass::Alu);
                     let (v, work) = visibility::visibility(
                         &CountedTexels { map, s },
-                        s.s_add(s.s_load(&xs, lane), w),
-                        s.s_add(s.s_load(&ys, lane), h),
-                        s.s_load(&zs, lane),
+                        s.s_add(s.s_load(&xs.0, lane), w),
+                        s.s_add(s.s_load(&ys.0, lane), h),
+                        s.s_load(&zs.0, lane),
                         function,
                         &self.settings,
                     );
-                    s.s_store(&mut tap, lane, v);
-                    let walked = s.s_add(s.s_load(&steps, lane), work.steps);
-                    s.s_store(&mut steps, lane, walked);
+                    s.s_store(&mut tap.0, lane, v);
+                    let walked = s.s_add(s.s_load(&steps.0, lane), work.steps);
+                    s.s_store(&mut steps.0, lane, walked);
                 }
-                sum = s.add_f(sum, s.from_array_f(tap));
+                sum = s.add_f(sum, s.from_array_f(tap.0));
             }
             let v = s.div_f(sum, s.splat_f(taps.len() as f32));
             let v = s.select_f(valid, v, s.splat_f(0.0));
@@ -451,7 +457,7 @@ impl Kernel for RbsmLookup<'_> {
                 let lane = rest.trailing_zeros() as usize;
                 rest &= rest - 1;
                 s.scalar_op(ScalarClass::Alu);
-                s.s_push(&mut out.steps, s.s_load(&steps, lane));
+                s.s_push(&mut out.steps, s.s_load(&steps.0, lane));
             }
             let hard_f = s.select_f(hard, s.splat_f(1.0), s.splat_f(0.0));
             out.differs_from_hard += s.mask_popcnt(s.mask_and(m, s.cmp_ne_f(v, hard_f))) as u64;

@@ -9,6 +9,7 @@
 //! then per bin a second counting sort by cell. Every step is deterministic (chunks and bins are fixed
 //! by the data, never by the host thread count).
 
+use crate::counted::LaneArray;
 use std::ops::Range;
 
 use glam::{UVec2, Vec2, Vec3};
@@ -907,61 +908,62 @@ impl Kernel for Classify<'_> {
         for (k, chunk) in self.samples.chunks(16).enumerate() {
             // Samples of a chunk may straddle a face boundary: take the face per lane (scalar setup of
             // the lane's grid parameters, then 16-wide arithmetic).
-            let mut u = [0f32; 16];
-            let mut v = [0f32; 16];
-            let mut umin = [0f32; 16];
-            let mut vmin = [0f32; 16];
-            let mut inv_cu = [0f32; 16];
-            let mut inv_cv = [0f32; 16];
-            let mut gu = [1i32; 16];
-            let mut gv = [1i32; 16];
-            let mut bins_u = [1i32; 16];
-            let mut first_bin = [0i32; 16];
-            let mut slice = [0i32; 16];
+            // Line-aligned lanes: their counted stores' lines do not depend on the stack's layout.
+            let mut u = LaneArray([0f32; 16]);
+            let mut v = LaneArray([0f32; 16]);
+            let mut umin = LaneArray([0f32; 16]);
+            let mut vmin = LaneArray([0f32; 16]);
+            let mut inv_cu = LaneArray([0f32; 16]);
+            let mut inv_cv = LaneArray([0f32; 16]);
+            let mut gu = LaneArray([1i32; 16]);
+            let mut gv = LaneArray([1i32; 16]);
+            let mut bins_u = LaneArray([1i32; 16]);
+            let mut first_bin = LaneArray([0i32; 16]);
+            let mut slice = LaneArray([0i32; 16]);
             for (lane, smp) in chunk.iter().enumerate() {
                 let g = &self.faces[s.s_read(&smp.face) as usize];
                 // Loads into the lane arrays (a load and a store each, the store counted), two
                 // reciprocals, the slice.
                 let put = |dst: &mut [f32; 16], x: &f32| s.s_store(dst, lane, s.s_read(x));
-                put(&mut u, &smp.uv.x);
-                put(&mut v, &smp.uv.y);
-                put(&mut umin, &g.uv_min.x);
-                put(&mut vmin, &g.uv_min.y);
+                put(&mut u.0, &smp.uv.x);
+                put(&mut v.0, &smp.uv.y);
+                put(&mut umin.0, &g.uv_min.x);
+                put(&mut vmin.0, &g.uv_min.y);
                 let put_i = |dst: &mut [i32; 16], x: &u32| s.s_store(dst, lane, s.s_read(x) as i32);
-                put_i(&mut gu, &g.columns.x);
-                put_i(&mut gv, &g.columns.y);
-                put_i(&mut bins_u, &g.bins.x);
-                put_i(&mut first_bin, &g.first_bin);
-                s.s_store(&mut inv_cu, lane, s.s_div(1.0, s.s_read(&g.cell_size.x)));
-                s.s_store(&mut inv_cv, lane, s.s_div(1.0, s.s_read(&g.cell_size.y)));
+                put_i(&mut gu.0, &g.columns.x);
+                put_i(&mut gv.0, &g.columns.y);
+                put_i(&mut bins_u.0, &g.bins.x);
+                put_i(&mut first_bin.0, &g.first_bin);
+                s.s_store(&mut inv_cu.0, lane, s.s_div(1.0, s.s_read(&g.cell_size.x)));
+                s.s_store(&mut inv_cv.0, lane, s.s_div(1.0, s.s_read(&g.cell_size.y)));
                 let depth = s.s_read(&smp.depth);
-                s.s_store(&mut slice, lane, g.slice_of(s, depth, slices) as i32);
+                s.s_store(&mut slice.0, lane, g.slice_of(s, depth, slices) as i32);
                 s.scalar_op(ScalarClass::Branch);
             }
             let m = s.mask_first_n(chunk.len());
             let zero = s.splat_i(0);
             let cu = s.floor_i(s.mul_f(
-                s.sub_f(s.from_array_f(u), s.from_array_f(umin)),
-                s.from_array_f(inv_cu),
+                s.sub_f(s.from_array_f(u.0), s.from_array_f(umin.0)),
+                s.from_array_f(inv_cu.0),
             ));
             let cv = s.floor_i(s.mul_f(
-                s.sub_f(s.from_array_f(v), s.from_array_f(vmin)),
-                s.from_array_f(inv_cv),
+                s.sub_f(s.from_array_f(v.0), s.from_array_f(vmin.0)),
+                s.from_array_f(inv_cv.0),
             ));
-            let cu = s.min_i(s.max_i(cu, zero), s.sub_i(s.from_array_i(gu), one));
-            let cv = s.min_i(s.max_i(cv, zero), s.sub_i(s.from_array_i(gv), one));
+            let cu = s.min_i(s.max_i(cu, zero), s.sub_i(s.from_array_i(gu.0), one));
+            let cv = s.min_i(s.max_i(cv, zero), s.sub_i(s.from_array_i(gv.0), one));
             // b is a small constant (bin side), division by it is by shifts when a power of two;
             // written generally here as multiply-free lane arithmetic on integers.
             let (bu, lu) = div_rem(s, cu, b);
             let (bv, lv) = div_rem(s, cv, b);
             let bin = s.add_i(
-                s.add_i(s.mul_i(bv, s.from_array_i(bins_u)), bu),
-                s.from_array_i(first_bin),
+                s.add_i(s.mul_i(bv, s.from_array_i(bins_u.0)), bu),
+                s.from_array_i(first_bin.0),
             );
             let local_col = s.add_i(s.mul_i(lv, s.splat_i(b)), lu);
             let cell = s.add_i(
                 s.mul_i(local_col, s.splat_i(slices as i32)),
-                s.from_array_i(slice),
+                s.from_array_i(slice.0),
             );
             let at = k * 16;
             s.mask_store_i(as_i32_mut(&mut self.bin_out[at..]), m, bin);

@@ -53,6 +53,7 @@
 //! left (6 FMAs, 3 compares, a masked add). Measured with 64 points: 1.7–2× the additive penumbra
 //! natively at 1600×1200, 2.6× on the modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
+use crate::counted::LaneArray;
 use rayon::prelude::*;
 use sism_simd::{Kernel, ScalarClass, Simd};
 
@@ -148,13 +149,18 @@ const ROTATIONS: usize = 256;
 /// group fills a sector of the disk (a quarter with 64 points, a sixteenth with 256), so rays cast
 /// to them in this order make compact vectors, and an edge whose region misses a group's sector
 /// skips its 16 points.
+///
+/// Line-aligned, the point arrays first: the kernels load `x` and `y` with counted vector loads,
+/// and the set lives on the host's stack, so their lines must not move with the stack's layout
+/// (two counted runs of one frame write the same records).
+#[repr(C, align(64))]
 struct PointSet {
+    x: [[f32; 16]; MAX_GROUPS],
+    y: [[f32; 16]; MAX_GROUPS],
     /// Points ([`LightPoints`]).
     n: usize,
     /// Their groups of 16: `n / 16`.
     groups: usize,
-    x: [[f32; 16]; MAX_GROUPS],
-    y: [[f32; 16]; MAX_GROUPS],
     /// Per group, the cone (apex at the centre, less than half a turn) holding its points: unit
     /// boundary directions `b0`, then `b1` counterclockwise, `[b0x, b0y, b1x, b1y]`, opened by
     /// [`CONE_SLACK`] radians on each side so that no point lies within rounding of its boundary.
@@ -958,16 +964,17 @@ fn add_edge_points<S: Simd>(
             let short = s.cmp_lt_f(s.mul_f(far, s.splat_f(1.0 + 1e-5)), d);
             *reach = s.mask_andn(s.mask_or(apart, short), active).bits();
         }
-        let coef: [[f32; 16]; 7] = [
-            s.to_array_f(fx),
-            s.to_array_f(fy),
-            s.to_array_f(s.neg_f(d)),
-            s.to_array_f(nlo[0]),
-            s.to_array_f(nlo[1]),
-            s.to_array_f(nhi[0]),
-            s.to_array_f(nhi[1]),
+        // Line-aligned lanes (counted loads on the stack; see `LaneArray`).
+        let coef: [LaneArray<f32>; 7] = [
+            LaneArray(s.to_array_f(fx)),
+            LaneArray(s.to_array_f(fy)),
+            LaneArray(s.to_array_f(s.neg_f(d))),
+            LaneArray(s.to_array_f(nlo[0])),
+            LaneArray(s.to_array_f(nlo[1])),
+            LaneArray(s.to_array_f(nhi[0])),
+            LaneArray(s.to_array_f(nhi[1])),
         ];
-        let w = s.to_array_i(s.cvtr_f_i(weight));
+        let w = LaneArray(s.to_array_i(s.cvtr_f_i(weight)));
         let at = s.to_array_i(idx);
         let mut lanes = active.bits();
         // The lane loop's test is a counted branch with its outcome (1 to 16 trips, data-dependent).
@@ -976,15 +983,15 @@ fn add_edge_points<S: Simd>(
             lanes &= lanes - 1;
             // Broadcasts from the lane arrays: a load each (counted as the scalar loads they are).
             let c = [
-                s.splat_f(s.s_load(&coef[0], lane)),
-                s.splat_f(s.s_load(&coef[1], lane)),
-                s.splat_f(s.s_load(&coef[2], lane)),
-                s.splat_f(s.s_load(&coef[3], lane)),
-                s.splat_f(s.s_load(&coef[4], lane)),
-                s.splat_f(s.s_load(&coef[5], lane)),
-                s.splat_f(s.s_load(&coef[6], lane)),
+                s.splat_f(s.s_load(&coef[0].0, lane)),
+                s.splat_f(s.s_load(&coef[1].0, lane)),
+                s.splat_f(s.s_load(&coef[2].0, lane)),
+                s.splat_f(s.s_load(&coef[3].0, lane)),
+                s.splat_f(s.s_load(&coef[4].0, lane)),
+                s.splat_f(s.s_load(&coef[5].0, lane)),
+                s.splat_f(s.s_load(&coef[6].0, lane)),
             ];
-            let wv = s.splat_i(s.s_load(&w, lane));
+            let wv = s.splat_i(s.s_load(&w.0, lane));
             // Counted: the lane's extraction (count trailing zeros, clear the lowest bit) and the
             // row's offset.
             s.scalar_op(ScalarClass::Alu);
