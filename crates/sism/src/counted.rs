@@ -39,6 +39,20 @@ impl<T> core::ops::DerefMut for LaneArray<T> {
     }
 }
 
+/// The lowest set lane of `rest`, cleared from it; `None` when none is left. The loop's test is a
+/// counted branch with its outcome (how many lanes a mask holds varies from vector to vector, and
+/// the host mispredicts it); the bit scan is the caller's to count. `while let Some(lane) =
+/// next_lane(s, &mut rest)` walks a mask's lanes in increasing order.
+#[inline(always)]
+pub fn next_lane<S: Simd>(s: S, rest: &mut u16) -> Option<usize> {
+    if !s.s_branch(*rest != 0) {
+        return None;
+    }
+    let lane = rest.trailing_zeros() as usize;
+    *rest &= *rest - 1;
+    Some(lane)
+}
+
 /// `-a` (three sign flips).
 #[inline(always)]
 pub fn neg<S: Simd>(s: S, a: Vec3) -> Vec3 {

@@ -109,7 +109,7 @@ pub struct Bench {
 /// `Kind::Alu`'s chain count that means "the backend's throughput chains" ([`throughput_chains`]).
 const THROUGHPUT_CHAINS: usize = 0;
 
-/// The chain count (2, 4, 6 or 8) at which the `alu` rounds run fastest natively on this process's
+/// The chain count (2, 4 or 8) at which the `alu` rounds run fastest natively on this process's
 /// backend, measured once: the vector unit's throughput. Eight chains keep AVX-512's two pipes
 /// busy in 8 of its 32 registers; the portable backend's 16 lanes take two AVX2 registers each,
 /// so its eight chains spill (measured on Zen 4: 42 ns a round, against 3.8 ns on two chains), and
@@ -268,7 +268,7 @@ impl Level {
 pub const BENCHES: &[Bench] = &[
     Bench {
         name: "alu",
-        what: "16-lane add/mul/fma on the independent chains (2, 4, 6 or 8) this backend runs fastest",
+        what: "16-lane add/mul/fma on the independent chains (2, 4 or 8) this backend runs fastest",
         fits: Fits::Vector,
         kind: Kind::Alu {
             iters: 200_000,
@@ -1207,7 +1207,6 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
                 1 => alu_run::<1>,
                 2 => alu_run::<2>,
                 4 => alu_run::<4>,
-                6 => alu_run::<6>,
                 _ => alu_run::<8>,
             };
             native_and_counted(&mut |r| {
@@ -1223,7 +1222,6 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             let f: fn(usize, bool, Option<&Recorder>) -> f32 = match throughput_chains() {
                 2 => float_mix_run::<2>,
                 4 => float_mix_run::<4>,
-                6 => float_mix_run::<6>,
                 _ => float_mix_run::<8>,
             };
             native_and_counted(&mut |r| {
@@ -1533,30 +1531,33 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
             }
         };
     for _ in 0..4 {
-        // Vector and gather costs first, each the mean of the costs that meet its benchmarks. Vector: the arithmetic benchmark
-        // and the compare/select/mask one. Kernels mix both kinds, and on the portable backend a
-        // compare into a mask or a select costs many times an add (its 16 lanes are two AVX2
-        // registers, a mask 16 bits to spread and gather), so either alone misses the kernels by
-        // a factor. Gathers: gathers and scatters.
-        for fits in [Fits::Vector, Fits::Gather] {
-            let xs: Vec<&Measured> = measured.iter().filter(|x| x.bench.fits == fits).collect();
-            if xs.is_empty() {
-                continue;
-            }
+        // Vector and gather costs first, each the mean of the costs that meet its benchmarks.
+        // Vector: the arithmetic benchmark and the compare/select/mask one. Kernels mix both kinds,
+        // and on the portable backend a compare into a mask or a select costs many times an add
+        // (its 16 lanes are two AVX2 registers, a mask 16 bits to spread and gather), so either
+        // alone misses the kernels by a factor. Gathers: gathers and scatters.
+        // What a mean fits, its upper bound, and how to read and set the cost.
+        type MeanFit = (Fits, f64, fn(&MachineConfig) -> f64, fn(&mut MachineConfig, f64));
+        let means: [MeanFit; 2] = [
+            (
+                Fits::Vector,
+                100.0,
+                |m| m.vector_cycles,
+                |m, c| m.vector_cycles = c,
+            ),
+            (
+                Fits::Gather,
+                10_000.0,
+                |m| m.gather_cycles,
+                |m, c| m.gather_cycles = c,
+            ),
+        ];
+        for (fits, hi, get, set) in means {
             let mut cs = Vec::new();
-            for x in &xs {
+            for x in measured.iter().filter(|x| x.bench.fits == fits) {
                 let mut t = m.clone();
-                let set: &dyn Fn(&mut MachineConfig, f64) = match fits {
-                    Fits::Vector => &|m, c| m.vector_cycles = c,
-                    _ => &|m, c| m.gather_cycles = c,
-                };
-                let hi = if fits == Fits::Vector { 100.0 } else { 10_000.0 };
-                solve(&mut t, x, 0.01, hi, set);
-                let c = if fits == Fits::Vector {
-                    t.vector_cycles
-                } else {
-                    t.gather_cycles
-                };
+                solve(&mut t, x, 0.01, hi, &set);
+                let c = get(&t);
                 // A benchmark another bound holds (the portable backend's `alu` on its 4 chains is
                 // latency-bound) says nothing about this cost: its solve is left out.
                 let mut u = t.clone();
@@ -1565,18 +1566,12 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                     cs.push(c);
                 }
             }
-            if cs.is_empty() {
-                continue;
-            }
-            let mean = cs.iter().sum::<f64>() / cs.len() as f64;
-            match fits {
-                Fits::Vector => m.vector_cycles = mean,
-                _ => m.gather_cycles = mean,
+            if !cs.is_empty() {
+                set(&mut m, cs.iter().sum::<f64>() / cs.len() as f64);
             }
         }
         for x in measured {
             match x.bench.fits {
-                Fits::Vector => {}
                 Fits::VectorLatency => solve(&mut m, x, 0.0, 100.0, &|m, c| m.latency_scale = c),
                 Fits::LoadStore => solve(&mut m, x, 0.01, 100.0, &|m, c| m.load_store_cycles = c),
                 Fits::Compress => solve(&mut m, x, 0.01, 1000.0, &|m, c| m.compress_cycles = c),
@@ -1586,7 +1581,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                     m.transcendental_cycles = c.round().max(1.0) as u32
                 }),
                 // Fitted on the means above.
-                Fits::Gather => {}
+                Fits::Vector | Fits::Gather => {}
                 Fits::Atomic => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
                     m.atomic_cycles = c.round().max(1.0) as u32
                 }),

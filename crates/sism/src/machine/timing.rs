@@ -495,12 +495,7 @@ impl<'a> Machine<'a> {
 
     /// Replays one phase: schedules its tasks, then the barrier.
     pub fn run_phase(&mut self, phase: &str, tasks: &[TaskRecord]) -> PhaseReport {
-        self.run_step(Step::parallel(phase, tasks))
-    }
-
-    /// [`Machine::run_phase`] for a step that may have run serially on the host
-    /// ([`Step::serial`]).
-    pub fn run_step(&mut self, step: Step<'_>) -> PhaseReport {
+        let step = Step::parallel(phase, tasks);
         let mut ids = std::mem::take(&mut self.ids);
         let mut chunk = Vec::new();
         let r = self.run_phase_with(step, |task, replay| ids.map(task, &mut chunk, replay));

@@ -348,7 +348,7 @@ const BOX_REL_MARGIN: f32 = 1e-6;
 
 // The front end's lanes stored for the per-triangle emission: one line per array in the counted
 // line stream, wherever the stack puts it.
-use crate::counted::LaneArray;
+use crate::counted::{next_lane, LaneArray};
 
 impl FrontEnd {
     fn new(frame: &CameraFrame, z_near: f32, tiles_x: u32) -> Self {
@@ -1063,9 +1063,7 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
             }
             // The sub-tiles' loop: its test is a counted branch with its outcome (1 to 16 trips).
             let mut rest = subs.0;
-            while s.s_branch(rest != 0) {
-                let k = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
+            while let Some(k) = next_lane(s, &mut rest) {
                 counts.subtiles_tested += 1;
                 // Bit-scan, then the sub-tile's corner: shifts and masks.
                 let (sx, sy) = (s.s_mul(k as u32 % 4, SUB), s.s_mul(k as u32 / 4, SUB));
@@ -1087,9 +1085,7 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                 }
                 // The blocks' loop, its test counted with its outcome as the sub-tiles' is.
                 let mut rest = blocks.0;
-                while s.s_branch(rest != 0) {
-                    let b = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
+                while let Some(b) = next_lane(s, &mut rest) {
                     // Bit-scan, the block's corner, the full test.
                     let bx = s.s_add(sx, (b as u32 % 4) * 4);
                     let by = s.s_add(sy, (b as u32 / 4) * 4);

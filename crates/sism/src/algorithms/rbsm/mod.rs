@@ -11,7 +11,7 @@
 
 pub mod visibility;
 
-use crate::counted::LaneArray;
+use crate::counted::{next_lane, LaneArray};
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
@@ -430,9 +430,7 @@ impl Kernel for RbsmLookup<'_> {
                 // many lanes are flagged varies chunk to chunk), the bit scan, the lane's position
                 // and tap offset, and the results' stores.
                 let mut rest = flagged.0;
-                while s.s_branch(rest != 0) {
-                    let lane = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
+                while let Some(lane) = next_lane(s, &mut rest) {
                     s.scalar_op(ScalarClass::Alu);
                     s.scalar_op(ScalarClass::Alu);
                     let (v, work) = visibility::visibility(
@@ -453,9 +451,7 @@ impl Kernel for RbsmLookup<'_> {
             let v = s.select_f(valid, v, s.splat_f(0.0));
             // Statistics (the walk steps of each flagged fragment), counted as the loop they are.
             let mut rest = flagged_any.0;
-            while s.s_branch(rest != 0) {
-                let lane = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
+            while let Some(lane) = next_lane(s, &mut rest) {
                 s.scalar_op(ScalarClass::Alu);
                 s.s_push(&mut out.steps, s.s_load(&steps.0, lane));
             }

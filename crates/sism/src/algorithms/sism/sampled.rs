@@ -53,7 +53,7 @@
 //! left (6 FMAs, 3 compares, a masked add). Measured with 64 points: 1.7–2× the additive penumbra
 //! natively at 1600×1200, 2.6× on the modelled in-order chip (larrabee-24, japanese-maple 800×600).
 
-use crate::counted::LaneArray;
+use crate::counted::{next_lane, LaneArray};
 use rayon::prelude::*;
 use sism_simd::{Kernel, ScalarClass, Simd};
 
@@ -978,9 +978,7 @@ fn add_edge_points<S: Simd>(
         let at = s.to_array_i(idx);
         let mut lanes = active.bits();
         // The lane loop's test is a counted branch with its outcome (1 to 16 trips, data-dependent).
-        while s.s_branch(lanes != 0) {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
+        while let Some(lane) = next_lane(s, &mut lanes) {
             // Broadcasts from the lane arrays: a load each (counted as the scalar loads they are).
             let c = [
                 s.splat_f(s.s_load(&coef[0].0, lane)),
