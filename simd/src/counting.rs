@@ -440,6 +440,12 @@ impl<'r, B: Simd> Counting<'r, B> {
     fn mask_op(self) {
         self.rec.with(|st| st.c.mask += 1)
     }
+    /// One instruction moving between lanes and a mask ([`Counters::mask_moves`]), besides its
+    /// own class's count.
+    #[inline(always)]
+    fn mask_move(self) {
+        self.rec.with(|st| st.c.mask_moves += 1)
+    }
     #[inline(always)]
     fn reduce(self, input: u64) {
         self.rec.with(|st| {
@@ -470,6 +476,8 @@ impl<'r, B: Simd> Counting<'r, B> {
         })
     }
     fn masked_contiguous(self, base: usize, m: Mask16, write: bool) {
+        // A masked load or store spreads its mask into lanes (a mask move) as a select does.
+        self.mask_move();
         if let (Some(f), Some(l)) = (m.first(), m.last()) {
             self.contiguous(base, f as usize, l as usize, write);
         }
@@ -520,10 +528,22 @@ macro_rules! fwd {
         }
     )* };
 }
+/// [`fwd`] for an operation that moves between lanes and a mask (compares, selects).
+macro_rules! fwd_mask_move {
+    ($class:ident, $lat:expr; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
+        #[inline(always)]
+        fn $name(self $(, $arg: $ty)*) -> $ret {
+            self.mask_move();
+            let d = self.op(Class::$class, 16, false, 0 $(.max(Operand::depth(&$arg)))*, $lat);
+            <$ret as Operand>::wrap(self.inner.$name($(Operand::raw($arg)),*), d)
+        }
+    )* };
+}
 macro_rules! fwd_masked {
     ($class:ident, $lat:expr; $( fn $name:ident(self, $src:ident : $sty:ty, $m:ident : Mask16 $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self, $src: $sty, $m: Mask16 $(, $arg: $ty)*) -> $ret {
+            self.mask_move();
             let d = self.op(Class::$class, $m.count(), true, $src.depth $(.max(Operand::depth(&$arg)))*, $lat);
             <$ret as Operand>::wrap(self.inner.$name($src.value, $m $(, Operand::raw($arg))*), d)
         }
@@ -662,7 +682,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn abs_f(self, a: Self::F32) -> Self::F32;
         fn neg_f(self, a: Self::F32) -> Self::F32;
     }
-    fwd! { Valu, latency::COMPARE_PERMUTE;
+    fwd_mask_move! { Valu, latency::COMPARE_PERMUTE;
         fn cmp_eq_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_ne_f(self, a: Self::F32, b: Self::F32) -> Mask16;
         fn cmp_lt_f(self, a: Self::F32, b: Self::F32) -> Mask16;
@@ -681,12 +701,16 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn cmp_gt_u(self, a: Self::I32, b: Self::I32) -> Mask16;
         fn cmp_ge_u(self, a: Self::I32, b: Self::I32) -> Mask16;
         fn test_i(self, a: Self::I32, b: Self::I32) -> Mask16;
+    }
+    fwd! { Valu, latency::COMPARE_PERMUTE;
         fn permute_f(self, v: Self::F32, idx: Self::I32) -> Self::F32;
         fn permute_i(self, v: Self::I32, idx: Self::I32) -> Self::I32;
     }
-    fwd! { Valu, latency::SIMPLE;
+    fwd_mask_move! { Valu, latency::SIMPLE;
         fn select_f(self, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
         fn select_i(self, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
+    }
+    fwd! { Valu, latency::SIMPLE;
         fn add_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn sub_i(self, a: Self::I32, b: Self::I32) -> Self::I32;
         fn and_i(self, a: Self::I32, b: Self::I32) -> Self::I32;

@@ -89,6 +89,11 @@ counters! {
     active_lanes,
     /// Vector instructions that took a mask.
     masked_ops,
+    /// Vector instructions that move between lanes and a mask: compares and `test_i` (lanes into
+    /// a mask), selects, masked arithmetic and masked loads and stores (a mask into lanes). Each
+    /// is also counted in its own class; this is what it costs beyond that. With mask registers
+    /// (Larrabee, AVX-512) nothing much; on the portable backend 16 lane bits packed or spread.
+    mask_moves,
     /// Cache lines touched by contiguous loads (1, or 2 when a 64-byte
     /// access straddles lines).
     load_lines,
@@ -173,8 +178,8 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 
 const MAGIC: u8 = 0x5A;
 // Version 2: `critical_path` and the counted scalar classes. Version 3: `branch_mispredicts`.
-// Version 4: `scalar_float`.
-const VERSION: u8 = 4;
+// Version 4: `scalar_float`. Version 5: `mask_moves`.
+const VERSION: u8 = 5;
 
 impl TaskRecord {
     /// Compact binary form: magic, version, then varints (kind, every

@@ -82,6 +82,7 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("stream_ramp_share", 0.0, 1.0),
     ("mispredict_cycles", 0.0, 10_000.0),
     ("scalar_float_cycles", 0.0, 10_000.0),
+    ("mask_move_cycles", 0.0, 10_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -282,6 +283,14 @@ pub struct MachineConfig {
     /// is unused (0, the default).
     #[serde(default)]
     pub scalar_float_cycles: f64,
+    /// Vector issue cycles one move between lanes and a mask (`Counters::mask_moves`: a compare, a
+    /// select, a masked operation, load or store) takes beyond its own class's cost (0–10000).
+    /// With mask registers (Larrabee, AVX-512) a compare writes a mask and a masked operation
+    /// reads one for free: 0, the default. The portable backend has none: a compare packs 16
+    /// lane results into 16 bits and a select spreads them back, several times an add. Hosts:
+    /// fitted on the compare/select benchmark after `vector_cycles` is fitted on arithmetic.
+    #[serde(default)]
+    pub mask_move_cycles: f64,
 }
 
 fn one() -> f64 {
@@ -366,6 +375,7 @@ impl MachineConfig {
             stream_ramp_share: 1.0,
             mispredict_cycles: 4.0,
             scalar_float_cycles: 0.0,
+            mask_move_cycles: 0.0,
         }
     }
 
@@ -605,6 +615,7 @@ impl MachineConfig {
             "stream_ramp_share" => self.stream_ramp_share,
             "mispredict_cycles" => self.mispredict_cycles,
             "scalar_float_cycles" => self.scalar_float_cycles,
+            "mask_move_cycles" => self.mask_move_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

@@ -4,8 +4,8 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 5 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
-//! 5: a step's flags):
+//! Format, version 6 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
+//! 5: a step's flags; 6: `mask_moves`):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -31,7 +31,7 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Step flag bit: the host ran the step's tasks serially.

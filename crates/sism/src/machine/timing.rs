@@ -190,12 +190,13 @@ impl TaskCost {
 /// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
 /// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
 /// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping. The real-valued
-/// per-class costs (`vector_cycles`, `load_store_cycles`, `compress_cycles`, `scalar_cycles`,
-/// `gather_cycles`) are summed in `f64` and
+/// per-class costs (`vector_cycles` and `mask_move_cycles`, `load_store_cycles`, `compress_cycles`,
+/// `scalar_cycles`, `gather_cycles`) are summed in `f64` and
 /// rounded up once; with Larrabee's costs of 1 every term is an exact integer, so the result is the
 /// integer formula's.
 pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
-    let alu = c.valu.saturating_add(c.fma) as f64 * m.vector_cycles;
+    let alu =
+        c.valu.saturating_add(c.fma) as f64 * m.vector_cycles + c.mask_moves as f64 * m.mask_move_cycles;
     let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
     let compress = c.compress_expand as f64 * m.compress_cycles;
     let gs_lines =
