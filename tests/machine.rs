@@ -55,7 +55,7 @@ fn encode_lines(lines: &[(u64, bool)]) -> Vec<u8> {
 
 fn task(counters: Counters, lines: &[(u64, bool)]) -> TaskRecord {
     let stream = encode_lines(lines);
-    let mut b = vec![0x5A, 4];
+    let mut b = vec![0x5A, sism_simd::TASK_RECORD_VERSION];
     varint(&mut b, 0);
     varint(&mut b, Counters::FIELDS.len() as u64);
     for v in counters.values() {

@@ -177,9 +177,10 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 }
 
 const MAGIC: u8 = 0x5A;
-// Version 2: `critical_path` and the counted scalar classes. Version 3: `branch_mispredicts`.
-// Version 4: `scalar_float`. Version 5: `mask_moves`.
-const VERSION: u8 = 5;
+/// The task record format's version ([`TaskRecord::to_bytes`]'s second byte). 2: `critical_path`
+/// and the counted scalar classes; 3: `branch_mispredicts`; 4: `scalar_float`; 5: `mask_moves`.
+pub const TASK_RECORD_VERSION: u8 = 5;
+const VERSION: u8 = TASK_RECORD_VERSION;
 
 impl TaskRecord {
     /// Compact binary form: magic, version, then varints (kind, every
