@@ -16,28 +16,13 @@ pub fn streamed<S: Simd, T: Copy>(s: S, data: &[T], i: usize) -> T {
 }
 
 /// A 16-lane array aligned to one cache line. Lanes a kernel stores or loads with counted scalar
-/// operations on the stack (`s.s_store(&mut lanes, lane, x)`) must live in one: a plain `[T; 16]`
+/// operations on the stack (`s.s_store(&mut lanes.0, lane, x)`) must live in one: a plain `[T; 16]`
 /// sits wherever the stack puts it, which moves with the address-space layout from run to run, so
 /// the lines it shares with its neighbours, and the first-touch ids of the records, would change
 /// from run to run (two counted runs of one frame must write the same records).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LaneArray<T>(pub [T; 16]);
-
-impl<T> core::ops::Deref for LaneArray<T> {
-    type Target = [T; 16];
-    #[inline(always)]
-    fn deref(&self) -> &[T; 16] {
-        &self.0
-    }
-}
-
-impl<T> core::ops::DerefMut for LaneArray<T> {
-    #[inline(always)]
-    fn deref_mut(&mut self) -> &mut [T; 16] {
-        &mut self.0
-    }
-}
 
 /// The lowest set lane of `rest`, cleared from it; `None` when none is left. The loop's test is a
 /// counted branch with its outcome (how many lanes a mask holds varies from vector to vector, and

@@ -1546,15 +1546,21 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
             solve(&mut t, x, 0.01, 100.0, &|m, c| m.vector_cycles = c);
             m.vector_cycles = t.vector_cycles;
         }
+        // Whether raising the cost `set` sets a little above `c` raises `x`'s prediction on `m`:
+        // false when another bound holds the benchmark, which then says nothing about that cost.
+        let moves = |x: &Measured, m: &MachineConfig, c: f64, set: &dyn Fn(&mut MachineConfig, f64)| {
+            let mut u = m.clone();
+            set(&mut u, c * 1.05 + 0.01);
+            predict(x, &u) > predict(x, m)
+        };
         // Gathers: the mean of the costs that meet the gather and the scatter benchmark.
         let mut cs = Vec::new();
         for x in measured.iter().filter(|x| x.bench.fits == Fits::Gather) {
             let mut t = m.clone();
-            solve(&mut t, x, 0.01, 10_000.0, &|m, c| m.gather_cycles = c);
-            // A benchmark another bound holds says nothing about this cost: left out.
-            let mut u = t.clone();
-            u.gather_cycles = t.gather_cycles * 1.05 + 0.01;
-            if predict(x, &u) > predict(x, &t) {
+            let set = |m: &mut MachineConfig, c: f64| m.gather_cycles = c;
+            solve(&mut t, x, 0.01, 10_000.0, &set);
+            // A benchmark another bound holds is left out.
+            if moves(x, &t, t.gather_cycles, &set) {
                 cs.push(t.gather_cycles);
             }
         }
@@ -1607,9 +1613,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::MaskMove => {
                     let set = |m: &mut MachineConfig, c: f64| m.mask_move_cycles = c;
                     solve(&mut m, x, 0.0, 1000.0, &set);
-                    let mut u = m.clone();
-                    set(&mut u, m.mask_move_cycles * 1.05 + 0.01);
-                    if predict(x, &u) <= predict(x, &m) {
+                    if !moves(x, &m, m.mask_move_cycles, &set) {
                         m.mask_move_cycles = 0.0;
                     }
                 }

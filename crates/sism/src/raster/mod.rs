@@ -34,6 +34,7 @@ use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
 
 use crate::counted;
+use crate::counted::{next_lane, LaneArray};
 
 use crate::exec::{task_kind, Phase};
 use crate::scene::{CameraFrame, Scene};
@@ -346,10 +347,6 @@ const AREA_MIN_BOUND: f32 = 1.0 / (1u128 << 100) as f32;
 const BOX_MARGIN: f32 = 1.0 / 64.0;
 const BOX_REL_MARGIN: f32 = 1e-6;
 
-// The front end's lanes stored for the per-triangle emission: one line per array in the counted
-// line stream, wherever the stack puts it.
-use crate::counted::{next_lane, LaneArray};
-
 impl FrontEnd {
     fn new(frame: &CameraFrame, z_near: f32, tiles_x: u32) -> Self {
         let t = frame.tan_half_fov as f64;
@@ -633,7 +630,8 @@ impl FrontEnd {
         let boxed = s.mask_and(x_ok, y_ok);
         let plane_dist = dot3_unfused(s, &normal, &rel[0]);
 
-        // Lanes to memory, then each triangle in source order.
+        // Lanes to memory (line-aligned: one line per array in the counted line stream, wherever
+        // the stack puts it), then each triangle in source order.
         let mut lanes_v = [[LaneArray([0.0f32; 16]); 3]; 3];
         let mut lanes_n = [LaneArray([0.0f32; 16]); 3];
         for k in 0..3 {
