@@ -462,37 +462,57 @@ fn plate_on_larrabee_24_and_replay() {
 fn counted_frames_repeat_exactly_for_any_thread_count() {
     // New allocations at new addresses each time, tasks on other host threads: with LineAlloc and
     // counted_frame the records, hence every simulated figure, are the same. (Without LineAlloc the
-    // line counts already differ between runs.)
+    // line counts already differ between runs.) `sism-sampled` and `pcss` keep lanes in stack arrays
+    // (their lines are renamed per counting run, else which host thread ran a task shows in them).
     let scene = load("plate.toml", 160, 120);
     let m = MachineConfig::preset("larrabee-24").unwrap();
-    let mut runs = Vec::new();
-    for threads in [2, 1, 3, 2] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        let records = pool.install(|| counted_records(&scene));
-        let report = simulate(&records, &m);
-        runs.push((threads, records, report));
-    }
-    let (_, first_records, first) = &runs[0];
-    assert!(first.frame.memory.accesses > 0 && first.frame.memory.l2_misses > 0);
-    let counters = |p: &PhaseRecords| p.tasks.iter().map(|t| t.counters).collect::<Vec<_>>();
-    let lines = |p: &PhaseRecords| p.tasks.iter().map(|t| t.lines.len()).collect::<Vec<_>>();
-    for (threads, records, report) in &runs[1..] {
-        assert_eq!(records.len(), first_records.len());
-        for (a, b) in records.iter().zip(first_records) {
-            assert_eq!(
-                counters(a),
-                counters(b),
-                "{} counters, {threads} threads",
-                a.phase
-            );
-            assert_eq!(lines(a), lines(b), "{} line counts, {threads} threads", a.phase);
+    for algorithm in ["sism", "sism-sampled", "pcss"] {
+        let mut runs = Vec::new();
+        for threads in [2, 1, 3, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let records = pool.install(|| counted(&scene, algorithm, Exec::Counting).records);
+            let report = simulate(&records, &m);
+            runs.push((threads, records, report));
         }
-        assert_eq!(report.frame.cycles, first.frame.cycles, "{threads} threads");
-        assert_eq!(report.frame.memory, first.frame.memory, "{threads} threads");
-        assert_eq!(report, first, "{threads} threads: the whole report");
+        let (_, first_records, first) = &runs[0];
+        assert!(first.frame.memory.accesses > 0 && first.frame.memory.l2_misses > 0);
+        let counters = |p: &PhaseRecords| p.tasks.iter().map(|t| t.counters).collect::<Vec<_>>();
+        let lines = |p: &PhaseRecords| p.tasks.iter().map(|t| t.lines.len()).collect::<Vec<_>>();
+        let canonical = sism::machine::canonical(first_records);
+        for (threads, records, report) in &runs[1..] {
+            assert_eq!(records.len(), first_records.len());
+            for (a, b) in records.iter().zip(first_records) {
+                assert_eq!(
+                    counters(a),
+                    counters(b),
+                    "{algorithm}: {} counters, {threads} threads",
+                    a.phase
+                );
+                assert_eq!(
+                    lines(a),
+                    lines(b),
+                    "{algorithm}: {} line counts, {threads} threads",
+                    a.phase
+                );
+            }
+            // The lines themselves, as a records file holds them.
+            assert!(
+                sism::machine::canonical(records) == canonical,
+                "{algorithm}, {threads} threads: the records' lines"
+            );
+            assert_eq!(
+                report.frame.cycles, first.frame.cycles,
+                "{algorithm}, {threads} threads"
+            );
+            assert_eq!(
+                report.frame.memory, first.frame.memory,
+                "{algorithm}, {threads} threads"
+            );
+            assert_eq!(report, first, "{algorithm}, {threads} threads: the whole report");
+        }
     }
 }
 

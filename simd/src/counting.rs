@@ -44,6 +44,50 @@ struct State {
     scalars: Box<[(u64, u64); SCALAR_SLOTS]>,
     /// The branch predictor model: each task starts it untrained.
     predictor: crate::branch::BranchPredictor,
+    /// The host thread's stack as the kernels see it ([`Recorder::mark_stack`]).
+    stack: StackLines,
+}
+
+/// Bytes below a counting run's stack mark whose lines are the kernel's own stack
+/// ([`Recorder::mark_stack`]): far more than a kernel's frames use, far less than a thread's stack
+/// (rayon's workers get 2 MiB), so no heap block can fall in it.
+pub const STACK_WINDOW: usize = 512 << 10;
+
+/// Line number of the first renamed stack line ([`StackLines`]): above every line of a user
+/// address (addresses below 2^57, lines below 2^51).
+pub const STACK_LINES_BASE: u64 = 1 << 52;
+
+/// Renames the lines of the kernel's own stack frames. Stack arrays (lanes a kernel stores and
+/// reloads, `LaneArray`) sit at addresses of whichever host thread ran the task, at whatever depth
+/// rayon ran it: recorded as they are, two tasks run one after the other on one host thread would
+/// share lines where on two threads they would not, and the records would depend on the pool's
+/// scheduling. Each counting run's stack lines are renamed, in the order it first touches them,
+/// to lines `STACK_LINES_BASE + 0, 1, …`: every task's stack is the same few lines, as a modelled
+/// hardware thread's stack is, whichever host thread ran it.
+#[derive(Debug, Default)]
+struct StackLines {
+    /// Line of the mark (exclusive upper bound); 0: no mark, nothing renamed.
+    top: u64,
+    /// The stack lines touched so far, in first-touch order (index = renamed line - base).
+    seen: Vec<u64>,
+}
+
+impl StackLines {
+    /// `line` renamed if it lies in the kernel's stack, else unchanged.
+    #[inline(always)]
+    fn rename(&mut self, line: u64) -> u64 {
+        if line >= self.top || line + (STACK_WINDOW as u64 >> 6) < self.top {
+            return line;
+        }
+        let k = match self.seen.iter().position(|&l| l == line) {
+            Some(k) => k,
+            None => {
+                self.seen.push(line);
+                self.seen.len() - 1
+            }
+        };
+        STACK_LINES_BASE + k as u64
+    }
 }
 
 /// Slots of [`State::scalars`]: the scalar results whose depth a task remembers.
@@ -147,6 +191,7 @@ impl State {
     /// Appends `line` to the task's stream.
     #[inline(always)]
     fn push_line(&mut self, line: u64, write: bool) {
+        let line = self.stack.rename(line);
         self.enc.push(line, write);
     }
 }
@@ -178,8 +223,21 @@ impl Recorder {
                 window: Box::new([0; WINDOW]),
                 retired: 0,
                 issued: 0,
+                stack: StackLines::default(),
             }),
         }
+    }
+
+    /// Marks the host stack: lines in the [`STACK_WINDOW`] bytes below `addr` are the kernel's
+    /// own stack frames and are renamed ([`StackLines`]). `addr` must be an address in a frame that
+    /// encloses every frame of the kernel and holds no data the kernel accesses with counted
+    /// operations ([`crate::run_counting`] marks its own frame).
+    pub fn mark_stack(&self, addr: usize) {
+        let mut st = self.st.borrow_mut();
+        st.stack = StackLines {
+            top: line_of(addr),
+            seen: Vec::new(),
+        };
     }
 
     /// Start a task (files the current one first if it recorded anything).

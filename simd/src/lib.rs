@@ -93,7 +93,7 @@ mod simd;
 pub mod avx512;
 
 pub use alloc::{HoldFrees, LineAlloc};
-pub use counting::{latency, Counting, Recorder, Tracked, WINDOW};
+pub use counting::{latency, Counting, Recorder, Tracked, STACK_LINES_BASE, STACK_WINDOW, WINDOW};
 pub use dispatch::{
     available, available_backends, best_available, parse_backend, run_counting, run_counting_with,
     run_native, run_with, selected_backend, set_backend, Kernel,

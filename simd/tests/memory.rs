@@ -584,3 +584,62 @@ proptest! {
         prop_assert_eq!(t.lines.iter().collect::<Vec<_>>(), want);
     }
 }
+
+// ---------------- the kernel's own stack ----------------
+
+/// Stores a vector into a line-aligned stack array and reloads it, then loads a heap buffer.
+struct StackLanes<'a>(&'a [f32]);
+#[repr(C, align(64))]
+struct Lanes([f32; 16]);
+impl sism_simd::Kernel for StackLanes<'_> {
+    type Output = f32;
+    #[inline(always)]
+    fn run<S: Simd>(self, s: S) -> f32 {
+        s.begin_task(1);
+        let mut lanes = Lanes([0.0; 16]);
+        let v = s.load_f(self.0);
+        s.store_f(&mut lanes.0, s.add_f(v, v));
+        let w = s.load_f(std::hint::black_box(&lanes.0));
+        s.end_task();
+        s.reduce_add_f(w)
+    }
+}
+
+/// The lines a counting run of [`StackLanes`] records, `depth` frames down the calling thread's stack.
+#[inline(never)]
+fn stack_lines(heap: &[f32], depth: usize) -> Vec<(u64, bool)> {
+    if depth > 0 {
+        let pad = std::hint::black_box([depth as u8; 256]);
+        let lines = stack_lines(heap, depth - 1);
+        std::hint::black_box(&pad);
+        return lines;
+    }
+    let rec = Recorder::new();
+    sism_simd::run_counting(&rec, StackLanes(heap));
+    let tasks = rec.take_tasks();
+    tasks.iter().flat_map(|t| t.lines.iter()).collect()
+}
+
+#[test]
+fn stack_lines_are_renamed_whatever_the_thread_and_depth() {
+    // The same kernel on another thread or deeper in the stack records the same lines: its stack
+    // array's line is renamed (STACK_LINES_BASE + 0), the heap buffer's is its own.
+    let heap = vec![1.0f32; 16];
+    let here = stack_lines(&heap, 0);
+    let heap_line = heap.as_ptr() as u64 >> 6;
+    assert!(here.iter().any(|&(l, _)| l == heap_line), "{here:?}");
+    let renamed: Vec<_> = here
+        .iter()
+        .filter(|&&(l, _)| l >= sism_simd::STACK_LINES_BASE)
+        .collect();
+    assert_eq!(
+        renamed,
+        [
+            &(sism_simd::STACK_LINES_BASE, true),
+            &(sism_simd::STACK_LINES_BASE, false)
+        ]
+    );
+    assert_eq!(stack_lines(&heap, 7), here);
+    let there = std::thread::scope(|sc| sc.spawn(|| stack_lines(&heap, 3)).join().unwrap());
+    assert_eq!(there, here);
+}
