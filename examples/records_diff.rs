@@ -1,5 +1,5 @@
 //! Where two records files of the same frame first differ, step by step (counters, line count, line
-//! stream): `cargo run --release --example records_diff -- A.bin B.bin`.
+//! stream, as `id:stream_state`): `cargo run --release --example records_diff -- A.bin B.bin`.
 use sism::machine::records::load_records;
 
 fn main() {
@@ -47,6 +47,18 @@ fn main() {
                 y.lines.len(),
                 fields.join(", ")
             );
+            // The first access that differs (a records file's line is `id << 2 | stream state`).
+            let (la, lb): (Vec<_>, Vec<_>) = (x.lines.iter().collect(), y.lines.iter().collect());
+            if let Some(k) = (0..la.len().min(lb.len())).find(|&k| la[k] != lb[k]) {
+                let show = |l: &[(u64, bool)]| {
+                    l[k.saturating_sub(2)..(k + 3).min(l.len())]
+                        .iter()
+                        .map(|&(v, w)| format!("{}:{}{}", v >> 2, v & 3, if w { "w" } else { "" }))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                };
+                println!("  access {k}: {} / {}", show(&la), show(&lb));
+            }
         }
     }
 }

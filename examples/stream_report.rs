@@ -19,10 +19,12 @@ fn main() {
         let (mut acc, mut streamed, mut first, mut random, mut near16, mut near64, mut writes) =
             (0u64, 0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
         for t in &p.tasks {
-            let lines: Vec<u64> = t.lines.iter().map(|(l, _)| l).collect();
+            // A records file's line is `id << 2 | stream state`.
+            let lines: Vec<u64> = t.lines.iter().map(|(l, _)| l >> 2).collect();
             let mut k = 0;
-            mapper.map_each(t, |a| {
-                let (id, write, stream) = (a >> 2, a & 1 == 1, a >> 1 & 1 == 1);
+            mapper.map_each(t, p.first_touch, |a| {
+                // `id << 3 | established << 2 | young << 1 | write`.
+                let (id, write, stream) = (a >> 3, a & 1 == 1, a >> 1 & 3 != 0);
                 acc += 1;
                 streamed += stream as u64;
                 writes += write as u64;

@@ -86,6 +86,7 @@ fn phase(name: &str, tasks: Vec<TaskRecord>) -> PhaseRecords {
         phase: name.into(),
         tasks,
         serial: false,
+        first_touch: false,
     }
 }
 
@@ -450,6 +451,15 @@ fn plate_on_larrabee_24_and_replay() {
     assert_eq!(simulate(&loaded, &m), r);
     let m48 = MachineConfig::resolve("larrabee-48", None).unwrap();
     assert_eq!(simulate(&loaded, &m48), simulate(&records, &m48));
+    // And on a machine whose prefetcher follows streams (on addresses: the file keeps each line's
+    // stream state, else every first pass over fresh lines would replay as a stream).
+    let host = MachineConfig::resolve("host", Some(sism::host::facts())).unwrap();
+    assert!(host.prefetcher);
+    let direct = simulate(&records, &host);
+    assert_eq!(simulate(&loaded, &host), direct);
+    assert!(direct.frame.memory.l2_misses > 0);
+    // Saving the saved records again changes nothing.
+    assert_eq!(sism::machine::canonical(&loaded), loaded);
     // A second counted render (new allocations at new addresses) times identically.
     assert_eq!(simulate(&counted_records(&scene), &m), r);
     // A corrupt file is an error, not a panic.

@@ -7,7 +7,9 @@
 //! * **Alignment.** A 16-lane load from a buffer that starts mid-line touches two lines, from a
 //!   line-aligned one a single line; the distinct lines of a gather depend on it too.
 //!   [`LineAlloc`] aligns every block to [`LINE`] bytes, so a buffer's lines are a function of the
-//!   offsets accessed, and two blocks never share a line.
+//!   offsets accessed, and two blocks never share a line. [`GAP_LINES`] unused lines follow every
+//!   block, so that two blocks are never near neighbours either (a model following sequential
+//!   streams would otherwise run from one into the other in the runs that place them side by side).
 //! * **Reuse.** Memory freed during a frame and handed out again makes two unrelated buffers (a
 //!   task's scratch vector and the next task's, which host thread ran which) the same lines for
 //!   the machine model's caches. While a [`HoldFrees`] guard is alive, freed blocks are held back
@@ -35,7 +37,7 @@ pub const LINE: usize = 64;
 
 /// Global allocator wrapper over `A`: every block [`LINE`]-aligned, and frees held back while a
 /// [`HoldFrees`] guard is alive (see the module documentation). The cost outside counted frames is
-/// the alignment (up to a line per small block) and one atomic load per free. Use it only as the
+/// the alignment and the gap (up to five lines per block) and one atomic load per free. Use it only as the
 /// `#[global_allocator]`: held blocks are released through the global allocator.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct LineAlloc<A>(pub A);
@@ -58,19 +60,31 @@ static HOLD_LOCK: Mutex<()> = Mutex::new(());
 #[repr(C)]
 struct Held {
     next: *mut Held,
+    /// The caller's layout (the block was freed with it; [`inner_layout`] of it is the block's).
     size: usize,
     align: usize,
 }
 
+/// Lines left unused after every block ([`LineAlloc`]): two blocks' lines are always more than
+/// this many lines apart, so a model that follows sequential streams within a reach of up to this
+/// many lines (`sism::machine::timing::STREAM_REACH`) never continues a stream from one block into
+/// another because the allocator happened to place them side by side in one run and not in the
+/// next.
+pub const GAP_LINES: usize = 4;
+
 /// The layout asked of the inner allocator: at least [`LINE`]-aligned, large enough to hold a
-/// [`Held`] header. A function of the caller's layout alone, so `dealloc` and `realloc` pass the
-/// inner allocator the same layout `alloc` did.
+/// [`Held`] header, rounded up to whole lines and followed by [`GAP_LINES`] unused lines. A
+/// function of the caller's layout alone, so `dealloc` and `realloc` pass the inner allocator the
+/// same layout `alloc` did. `None` if the padded size overflows the layout's limit.
 #[inline]
-fn inner_layout(l: Layout) -> Layout {
-    let size = l.size().max(core::mem::size_of::<Held>());
+fn inner_layout(l: Layout) -> Option<Layout> {
+    let size = l
+        .size()
+        .max(core::mem::size_of::<Held>())
+        .checked_next_multiple_of(LINE)?
+        .checked_add(GAP_LINES * LINE)?;
     let align = l.align().max(LINE);
-    // Cannot fail: `align` is a power of two and `size` only grew to a small constant.
-    Layout::from_size_align(size, align).expect("valid layout")
+    Layout::from_size_align(size, align).ok()
 }
 
 // SAFETY: every method forwards to the inner allocator with `inner_layout(layout)`, a function of the
@@ -81,19 +95,28 @@ fn inner_layout(l: Layout) -> Layout {
 unsafe impl<A: GlobalAlloc> GlobalAlloc for LineAlloc<A> {
     #[inline]
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        // SAFETY: the inner layout has non-zero size (at least a header) and a valid alignment.
-        unsafe { self.0.alloc(inner_layout(layout)) }
+        match inner_layout(layout) {
+            // SAFETY: the inner layout has non-zero size (at least a header) and a valid alignment.
+            Some(inner) => unsafe { self.0.alloc(inner) },
+            None => null_mut(),
+        }
     }
 
     #[inline]
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        // SAFETY: as in `alloc`.
-        unsafe { self.0.alloc_zeroed(inner_layout(layout)) }
+        match inner_layout(layout) {
+            // SAFETY: as in `alloc`.
+            Some(inner) => unsafe { self.0.alloc_zeroed(inner) },
+            None => null_mut(),
+        }
     }
 
     #[inline]
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        let inner = inner_layout(layout);
+        // `alloc` succeeded with this layout, so its inner layout exists.
+        let Some(inner) = inner_layout(layout) else {
+            return;
+        };
         if HOLDERS.load(Ordering::Acquire) == 0 {
             // SAFETY: `ptr` came from `self.0` with `inner` (same mapping of the same layout).
             unsafe { self.0.dealloc(ptr, inner) };
@@ -115,8 +138,8 @@ unsafe impl<A: GlobalAlloc> GlobalAlloc for LineAlloc<A> {
         unsafe {
             node.write(Held {
                 next: null_mut(),
-                size: inner.size(),
-                align: inner.align(),
+                size: layout.size(),
+                align: layout.align(),
             })
         };
         let mut head = HELD.load(Ordering::Relaxed);
@@ -136,8 +159,13 @@ unsafe impl<A: GlobalAlloc> GlobalAlloc for LineAlloc<A> {
             // SAFETY: the caller's contract, with both layouts mapped the same way as in `alloc`.
             // The new inner size keeps the header minimum and the inner alignment.
             unsafe {
-                let new = inner_layout(Layout::from_size_align_unchecked(new_size, layout.align()));
-                return self.0.realloc(ptr, inner_layout(layout), new.size());
+                let (Some(old), Some(new)) = (
+                    inner_layout(layout),
+                    inner_layout(Layout::from_size_align_unchecked(new_size, layout.align())),
+                ) else {
+                    return null_mut();
+                };
+                return self.0.realloc(ptr, old, new.size());
             }
         }
         // While frees are held a moved block must not go back to the allocator: copy by hand.
@@ -228,11 +256,12 @@ impl Drop for HoldFrees {
         let mut p = HELD.swap(null_mut(), Ordering::AcqRel);
         while !p.is_null() {
             // SAFETY: every node on the list is a block freed through `LineAlloc::dealloc` with the
-            // recorded inner layout; it is released exactly once (the list was taken atomically).
+            // recorded (caller's) layout; it is released exactly once (the list was taken atomically).
             unsafe {
                 let Held { next, size, align } = p.read();
-                HELD_BYTES.fetch_sub(size, Ordering::Relaxed);
                 let layout = Layout::from_size_align_unchecked(size, align);
+                let inner = inner_layout(layout).map_or(0, |l| l.size());
+                HELD_BYTES.fetch_sub(inner, Ordering::Relaxed);
                 release(p.cast(), layout);
                 p = next;
             }
@@ -242,12 +271,12 @@ impl Drop for HoldFrees {
 
 /// Frees a held block. Blocks are only held by [`LineAlloc`] as the `#[global_allocator]` (it is
 /// not meant to be used as a plain allocator value), so the global allocator is the wrapper, and
-/// with no guard alive its `dealloc` goes straight to the inner allocator; `inner_layout` is
-/// idempotent, so the inner allocator sees the layout the block was allocated with.
+/// with no guard alive its `dealloc` goes straight to the inner allocator with the inner layout of
+/// the caller's `layout`: the one the block was allocated with.
 ///
 /// # Safety
-/// `ptr` was allocated by the global `LineAlloc` with inner layout `layout`, no guard is alive, and
-/// the block is freed exactly once.
+/// `ptr` was allocated by the global `LineAlloc` with the caller's layout `layout`, no guard is
+/// alive, and the block is freed exactly once.
 unsafe fn release(ptr: *mut u8, layout: Layout) {
     // SAFETY: per the function's contract.
     unsafe { std::alloc::dealloc(ptr, layout) };
@@ -258,11 +287,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn inner_layout_is_idempotent_and_aligned() {
+    fn inner_layout_is_aligned_whole_lines_and_a_gap() {
         for (size, align) in [(1, 1), (7, 4), (24, 8), (64, 64), (100, 16), (4096, 4096)] {
-            let l = inner_layout(Layout::from_size_align(size, align).unwrap());
-            assert!(l.align() >= LINE && l.align() >= align && l.size() >= size);
-            assert_eq!(inner_layout(l), l);
+            let l = inner_layout(Layout::from_size_align(size, align).unwrap()).unwrap();
+            assert!(l.align() >= LINE && l.align() >= align);
+            assert_eq!(l.size() % LINE, 0);
+            assert_eq!(l.size(), size.max(24).next_multiple_of(LINE) + GAP_LINES * LINE);
         }
+        // Past the largest layout: no block, not a wrapped size.
+        let huge = Layout::from_size_align(isize::MAX as usize - 63, 64).unwrap();
+        assert!(inner_layout(huge).is_none());
     }
 }

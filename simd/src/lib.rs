@@ -92,7 +92,7 @@ mod simd;
 #[cfg(target_arch = "x86_64")]
 pub mod avx512;
 
-pub use alloc::{HoldFrees, LineAlloc};
+pub use alloc::{HoldFrees, LineAlloc, GAP_LINES};
 pub use counting::{latency, Counting, Recorder, Tracked, STACK_LINES_BASE, STACK_WINDOW, WINDOW};
 pub use dispatch::{
     available, available_backends, best_available, parse_backend, run_counting, run_counting_with,

@@ -57,6 +57,9 @@ pub struct PhaseRecords {
     /// [`Phase::run_seq`]: tasks that share an output buffer), false when in parallel
     /// ([`Phase::run_par`]). A machine with `serial_steps` replays them so.
     pub serial: bool,
+    /// The tasks' lines are first-touch ids carrying the stream state their addresses gave, as a
+    /// records file holds them ([`crate::machine::canonical`]); false: line addresses, as recorded.
+    pub first_touch: bool,
 }
 
 impl PhaseRecords {
@@ -244,6 +247,7 @@ impl Phase {
                 phase: name,
                 tasks: Vec::new(),
                 serial,
+                first_touch: false,
             });
         }
         &mut self.steps.last_mut().expect("just pushed").tasks

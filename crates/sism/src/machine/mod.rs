@@ -69,6 +69,7 @@ fn named(records: &[PhaseRecords]) -> Vec<timing::Step<'_>> {
             name: p.phase.as_str(),
             tasks: &p.tasks[..],
             serial: p.serial,
+            first_touch: p.first_touch,
         })
         .collect()
 }

@@ -4,13 +4,13 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 6 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
-//! 5: a step's flags; 6: `mask_moves`):
+//! Format, version 7 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
+//! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state):
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 8 | magic `SISMREC\0` |
-//! | 4 | version (4) |
+//! | 4 | version (7) |
 //! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
 //! | 8 | total file size, bytes |
 //! | 4 | phase (step) count |
@@ -20,18 +20,23 @@
 //! **Identical bytes.** Recorded lines are process addresses, which differ from run to run. Saving
 //! replaces them by first-touch ids (the `n`-th distinct line of the frame, in record order, is line
 //! `n`) — exactly the ids the model's caches use — so two counted runs of the same frame write the
-//! same file, byte for byte, and every replay of it is identical to replaying the records in memory.
+//! same file, byte for byte. The prefetcher model follows streams on addresses, which the ids no
+//! longer are (any first pass over fresh lines would look sequential), so each saved line is
+//! `id << 2 | stream`, the stream state its address gave ([`super::timing::StreamFollower`]): every
+//! replay of the file is identical to replaying the records in memory. (Version 6 files held bare
+//! ids, and their replays on a machine with a prefetcher took every first pass for a stream.)
 
 use std::path::Path;
 
 use sism_simd::{LineStreamEncoder, TaskRecord};
 
 use super::cache::LineIds;
+use super::timing::{self, StreamFollower};
 use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Step flag bit: the host ran the step's tasks serially.
@@ -86,7 +91,9 @@ impl std::ops::Deref for CanonicalRecords {
     }
 }
 
-/// `records` with their lines replaced by first-touch ids in record order.
+/// `records` with their lines replaced by first-touch ids in record order, each carrying the
+/// stream state its address gave ([`timing::canonical_line`]: the prefetcher's streams are followed
+/// on addresses, which the ids no longer are). Records already in that form are copied.
 pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
     let mut ids = LineIds::new();
     CanonicalRecords(
@@ -95,13 +102,21 @@ pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
             .map(|p| PhaseRecords {
                 phase: p.phase.clone(),
                 serial: p.serial,
+                first_touch: true,
                 tasks: p
                     .tasks
                     .iter()
                     .map(|t| {
                         let mut lines = LineStreamEncoder::default();
-                        t.lines
-                            .for_each(|line, write| lines.push(ids.id(line) as u64, write));
+                        let mut streams = StreamFollower::default();
+                        t.lines.for_each(|line, write| {
+                            let (line, stream) = if p.first_touch {
+                                (line >> 2, (line & 3) as u32)
+                            } else {
+                                (line, streams.follow(line))
+                            };
+                            lines.push(timing::canonical_line(ids.id(line), stream), write)
+                        });
                         TaskRecord {
                             kind: t.kind,
                             counters: t.counters,
@@ -284,11 +299,15 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
                     ));
                 }
             }
-            // Lines: every id is one seen before or the next new one (first-touch order).
+            // Lines: every id is one seen before or the next new one (first-touch order), with a
+            // stream state of at most 2.
             let n = t
                 .lines
                 .try_for_each(access_budget - accesses, |line, _| {
-                    if line < next_id {
+                    let (line, stream) = (line >> 2, line & 3);
+                    if stream > 2 {
+                        false
+                    } else if line < next_id {
                         true
                     } else if line == next_id {
                         next_id += 1;
@@ -305,6 +324,7 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
             phase,
             tasks: list,
             serial: step_flags & STEP_SERIAL != 0,
+            first_touch: true,
         });
     }
     if r.remaining() != 0 {

@@ -399,7 +399,7 @@ impl<'a> Machine<'a> {
         let mut chunk = Vec::new();
         let ids = &mut self.ids;
         let (cores, l3) = (&mut self.cores, &mut self.l3);
-        let pages = ids.map(task, &mut chunk, |lines| {
+        let pages = ids.map(task, false, &mut chunk, |lines| {
             tally.replay(&mut cores[core], l3.as_mut(), lines);
         });
         self.finish(&task.counters, &tally, pages, mem)
@@ -499,7 +499,7 @@ impl<'a> Machine<'a> {
         let step = Step::parallel(phase, tasks);
         let mut ids = std::mem::take(&mut self.ids);
         let mut chunk = Vec::new();
-        let r = self.run_phase_with(step, |task, replay| ids.map(task, &mut chunk, replay));
+        let r = self.run_phase_with(step, |task, replay| ids.map(task, false, &mut chunk, replay));
         self.ids = ids;
         r
     }
@@ -583,6 +583,10 @@ pub const STREAMS: usize = 16;
 /// bytes) is followed, as a stride prefetcher does.
 pub const STREAM_REACH: u64 = 4;
 
+// Blocks of `LineAlloc` lie more than this far apart, so no stream runs from one into another
+// because the allocator placed them side by side in one run and not in the next.
+const _: () = assert!(STREAM_REACH <= sism_simd::GAP_LINES as u64);
+
 /// Lines a stream covers before the prefetcher has run far enough ahead of it: the lines it
 /// reaches within its first 64 lines (a 4 KiB page, within which hardware prefetchers train) cost
 /// `stream_ramp_share` of their level's latency, the later ones the streaming cost. Assumption,
@@ -607,16 +611,26 @@ pub struct Step<'a> {
     /// The host ran the tasks one after another ([`crate::exec::PhaseRecords::serial`]): a machine
     /// with `serial_steps` runs them on one core.
     pub serial: bool,
+    /// The tasks' lines are first-touch ids with their stream states, as a records file holds them
+    /// ([`crate::exec::PhaseRecords::first_touch`]); false: line addresses, as recorded.
+    pub first_touch: bool,
 }
 
 impl<'a> Step<'a> {
-    /// A step whose tasks ran in parallel.
+    /// A step whose tasks ran in parallel, their lines as recorded.
     pub fn parallel(name: &'a str, tasks: &'a [TaskRecord]) -> Step<'a> {
         Step {
             name,
             tasks,
             serial: false,
+            first_touch: false,
         }
+    }
+
+    /// The step's tasks, each with whether its lines are first-touch ids ([`Step::first_touch`]).
+    fn tasks(&self) -> impl Iterator<Item = (&'a TaskRecord, bool)> {
+        let first_touch = self.first_touch;
+        self.tasks.iter().map(move |t| (t, first_touch))
     }
 }
 
@@ -633,11 +647,11 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[Step<'_>]) -> Vec<PhaseR
         let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, Option<TaskPages>)>(PIPELINE_DEPTH);
         let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
         scope.spawn(move || {
-            for task in phases.iter().flat_map(|p| p.tasks.iter()) {
+            for (task, first_touch) in phases.iter().flat_map(|p| p.tasks()) {
                 let mut buf = empty_rx.try_recv().unwrap_or_default();
                 buf.clear();
                 let mut alive = true;
-                let pages = ids.map_each(task, |id| {
+                let pages = ids.map_each(task, first_touch, |id| {
                     buf.push(id);
                     if buf.len() == CHUNK_LINES && alive {
                         let next = empty_rx.try_recv().unwrap_or_default();
@@ -691,8 +705,8 @@ impl DecodedLines {
         let mut offsets = vec![0];
         let (mut map, mut chunk) = (LineMapper::default(), Vec::new());
         let mut pages = Vec::new();
-        for task in phases.iter().flat_map(|p| p.tasks.iter()) {
-            pages.push(map.map(task, &mut chunk, |c| ids.extend_from_slice(c)));
+        for (task, first_touch) in phases.iter().flat_map(|p| p.tasks()) {
+            pages.push(map.map(task, first_touch, &mut chunk, |c| ids.extend_from_slice(c)));
             offsets.push(ids.len());
         }
         DecodedLines { ids, offsets, pages }
@@ -751,16 +765,18 @@ const LINES_PER_PAGE: u32 = (PAGE_BYTES / 64) as u32;
 
 impl LineMapper {
     /// Decodes `task`'s line stream as `id << 3 | established_stream << 2 | young_stream << 1 |
-    /// is_write`, calling `replay` with chunks of at
-    /// most [`CHUNK_LINES`] ids (`chunk` is the buffer); returns the task's pages.
+    /// is_write`, calling `replay` with chunks of at most [`CHUNK_LINES`] ids (`chunk` is the
+    /// buffer); returns the task's pages. `first_touch`: the lines are first-touch ids with their
+    /// stream states ([`canonical_line`]), as a records file holds them, else line addresses.
     pub fn map(
         &mut self,
         task: &TaskRecord,
+        first_touch: bool,
         chunk: &mut Vec<u32>,
         mut replay: impl FnMut(&[u32]),
     ) -> TaskPages {
         chunk.clear();
-        let pages = self.map_each(task, |id| {
+        let pages = self.map_each(task, first_touch, |id| {
             chunk.push(id);
             if chunk.len() == CHUNK_LINES {
                 replay(chunk);
@@ -778,14 +794,10 @@ impl LineMapper {
     /// the frame first touched it), not of process addresses: where a buffer falls relative to the
     /// host's page boundaries changes from run to run, and the counts must not.
     ///
-    /// Streams are followed on addresses (first-touch ids make any first pass look sequential):
-    /// the task's last [`STREAMS`] stream heads are kept, and an access within
-    /// [`STREAM_REACH`] lines of one of them, either way, continues that stream and moves its
-    /// head (bit 1 of its id word while the stream has moved by fewer than [`STREAM_RAMP`] lines,
-    /// bit 2 after); any other access starts a stream in place of the least recently used one. A
-    /// uniform shift of the addresses changes nothing; two buffers the allocator happened to
-    /// place end to end can continue one stream across the seam, as a hardware prefetcher would.
-    pub fn map_each(&mut self, task: &TaskRecord, mut each: impl FnMut(u32)) -> TaskPages {
+    /// Streams are followed on addresses ([`StreamFollower`]; first-touch ids would make any first
+    /// pass look sequential). Lines that are already first-touch ids carry the state the
+    /// addresses gave when they were saved.
+    pub fn map_each(&mut self, task: &TaskRecord, first_touch: bool, mut each: impl FnMut(u32)) -> TaskPages {
         let mut pages = TaskPages::default();
         let mut last_page = u32::MAX;
         self.task = self.task.wrapping_add(1);
@@ -795,59 +807,15 @@ impl LineMapper {
             self.task = 1;
         }
         let task_number = self.task;
-        // Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
-        let mut heads = [u64::MAX / 2; STREAMS];
-        // Lines each stream has moved by (saturating): young below `STREAM_RAMP`.
-        let mut moves = [0u8; STREAMS];
-        // The access count at each stream's last use: a new stream replaces the least recently
-        // used one (a prefetcher keeps the streams it is following; round-robin replacement would
-        // restart a busy stream every 16 stray accesses, young again).
-        let mut used = [0u64; STREAMS];
-        let mut last = 0;
+        let mut streams = StreamFollower::default();
         // A plain loop over the decoder (not a callback): the stream state stays in registers and
         // nothing is called per access.
-        for (clock, (line, write)) in task.lines.iter().enumerate() {
-            let clock = clock as u64;
-            // The heads within reach (the line itself included), as a bit mask: a branch-free
-            // loop the compiler vectorises, since the mapper does this for every access.
-            let within = |h: u64| line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH;
-            // Most accesses continue the stream the last one did: tried first.
-            let mut near = (within(heads[last]) as u32) << last;
-            if near == 0 {
-                for (k, &h) in heads.iter().enumerate() {
-                    near |= (within(h) as u32) << k;
-                }
-            }
-            // 0: no new line of a stream; 1: a young stream's; 2: an established stream's.
-            let stream = if near != 0 {
-                // The stream found moves to the line; the same line again is no new line of its
-                // stream.
-                let k = near.trailing_zeros() as usize;
-                last = k;
-                used[k] = clock;
-                let moved = heads[k] != line;
-                heads[k] = line;
-                let state = if !moved {
-                    0
-                } else if moves[k] < STREAM_RAMP {
-                    1
-                } else {
-                    2
-                };
-                moves[k] = moves[k].saturating_add(moved as u8);
-                state
+        for (line, write) in task.lines.iter() {
+            let (line, stream) = if first_touch {
+                // At most 2 (a records file's lines are checked as it loads).
+                (line >> 2, (line & 3).min(2) as u32)
             } else {
-                let mut victim = 0;
-                for k in 1..STREAMS {
-                    if used[k] < used[victim] {
-                        victim = k;
-                    }
-                }
-                heads[victim] = line;
-                moves[victim] = 0;
-                used[victim] = clock;
-                last = victim;
-                0
+                (line, streams.follow(line))
             };
             let before = self.ids.len();
             let id = self.ids.id(line);
@@ -866,6 +834,98 @@ impl LineMapper {
             each(id << 3 | stream << 1 | write as u32);
         }
         pages
+    }
+}
+
+/// A records file's line: first-touch id `id` with the stream state `stream` its address gave
+/// ([`StreamFollower::follow`]).
+#[inline]
+pub fn canonical_line(id: u32, stream: u32) -> u64 {
+    (id as u64) << 2 | stream as u64
+}
+
+/// The sequential streams a task's prefetcher follows, on line addresses: the task's last
+/// [`STREAMS`] stream heads are kept, and an access within [`STREAM_REACH`] lines of one of them,
+/// either way, continues that stream and moves its head (state 1 while the stream has moved by
+/// fewer than [`STREAM_RAMP`] lines, 2 after); any other access starts a stream in place of the
+/// least recently used one. A uniform shift of the addresses changes nothing; two buffers the
+/// allocator happened to place end to end can continue one stream across the seam, as a hardware
+/// prefetcher would. One per task (each task starts with no stream).
+pub struct StreamFollower {
+    /// Stream heads (line addresses); `u64::MAX / 2` is never near a real line.
+    heads: [u64; STREAMS],
+    /// Lines each stream has moved by (saturating): young below `STREAM_RAMP`.
+    moves: [u8; STREAMS],
+    /// The access count at each stream's last use: a new stream replaces the least recently used
+    /// one (a prefetcher keeps the streams it is following; round-robin replacement would restart
+    /// a busy stream every 16 stray accesses, young again).
+    used: [u64; STREAMS],
+    /// The stream the last access continued or started.
+    last: usize,
+    /// Accesses so far.
+    clock: u64,
+}
+
+impl Default for StreamFollower {
+    fn default() -> Self {
+        StreamFollower {
+            heads: [u64::MAX / 2; STREAMS],
+            moves: [0; STREAMS],
+            used: [0; STREAMS],
+            last: 0,
+            clock: 0,
+        }
+    }
+}
+
+impl StreamFollower {
+    /// The next access's line: 0 if it is no new line of a stream (a new stream, or the same line
+    /// again), 1 if a young stream's, 2 if an established stream's.
+    #[inline(always)]
+    pub fn follow(&mut self, line: u64) -> u32 {
+        let clock = self.clock;
+        self.clock += 1;
+        let (heads, moves, used) = (&mut self.heads, &mut self.moves, &mut self.used);
+        // The heads within reach (the line itself included), as a bit mask: a branch-free loop
+        // the compiler vectorises, since the mapper does this for every access.
+        let within = |h: u64| line.wrapping_sub(h).wrapping_add(STREAM_REACH) <= 2 * STREAM_REACH;
+        // Most accesses continue the stream the last one did: tried first.
+        let mut near = (within(heads[self.last]) as u32) << self.last;
+        if near == 0 {
+            for (k, &h) in heads.iter().enumerate() {
+                near |= (within(h) as u32) << k;
+            }
+        }
+        if near != 0 {
+            // The stream found moves to the line; the same line again is no new line of its
+            // stream.
+            let k = near.trailing_zeros() as usize;
+            self.last = k;
+            used[k] = clock;
+            let moved = heads[k] != line;
+            heads[k] = line;
+            let state = if !moved {
+                0
+            } else if moves[k] < STREAM_RAMP {
+                1
+            } else {
+                2
+            };
+            moves[k] = moves[k].saturating_add(moved as u8);
+            state
+        } else {
+            let mut victim = 0;
+            for k in 1..STREAMS {
+                if used[k] < used[victim] {
+                    victim = k;
+                }
+            }
+            heads[victim] = line;
+            moves[victim] = 0;
+            used[victim] = clock;
+            self.last = victim;
+            0
+        }
     }
 }
 
