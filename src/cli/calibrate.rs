@@ -20,7 +20,16 @@ pub struct Args {
 pub fn run(a: Args) -> anyhow::Result<()> {
     let facts = sism::host::facts();
     let backend = facts.backend;
-    let start = MachineConfig::host(facts);
+    let mut start = MachineConfig::host(facts);
+    // The shared cache's capacity as this guest gets it (other tenants share it): the model's, and
+    // the size of the shared-cache benchmarks below.
+    if !a.quiet {
+        note!("measuring the shared cache's usable capacity");
+    }
+    let shared = sism::host::shared_cache::probe(start.l2_kb, start.l3_kb);
+    if let Some(kb) = shared.as_ref().and_then(|p| p.effective_kb) {
+        use_shared_cache_kb(&mut start, kb);
+    }
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         create_dir(dir)?;
     }
@@ -35,7 +44,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         })
         .collect();
     bar.finish_and_clear();
-    let fitted = calibrate::fit(&start, &measured);
+    let mut fitted = calibrate::fit(&start, &measured);
+    fitted.shared_cache = shared;
     fitted
         .config
         .validate()
@@ -50,7 +60,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             facts.clock_ghz,
             fitted.table().trim_end()
         ))?;
+        if let Some(p) = &fitted.shared_cache {
+            note!("{}", p.describe());
+        }
         note!("wrote {}", a.out.display());
     }
     Ok(())
+}
+
+/// Models a shared cache of `kb` KiB (a power of two): its ways become a power of two (at most the
+/// reported ones) so that the sets stay a power of two.
+fn use_shared_cache_kb(m: &mut MachineConfig, kb: u32) {
+    m.l3_kb = kb;
+    m.l3_ways = 1 << m.l3_ways.max(1).ilog2();
+    while m.l3_ways > 1 && (kb as u64 * 1024 / m.line_bytes as u64) < m.l3_ways as u64 {
+        m.l3_ways /= 2;
+    }
 }

@@ -1495,6 +1495,9 @@ pub struct Calibration {
     pub config: MachineConfig,
     /// Per benchmark: measured and predicted ns of one run, after the fit.
     pub rows: Vec<(Bench, f64, f64)>,
+    /// The shared cache's measured capacity, when the caller probed it ([`super::shared_cache`]):
+    /// stated in the machine file's header.
+    pub shared_cache: Option<super::shared_cache::SharedCacheProbe>,
 }
 
 /// Fits `start`'s costs to `measured` (see the module docs). Deterministic given the measurements.
@@ -1646,7 +1649,11 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         .iter()
         .map(|x| (x.bench, x.host_ns, predict(x, &m) / ghz))
         .collect();
-    Calibration { config: m, rows }
+    Calibration {
+        config: m,
+        rows,
+        shared_cache: None,
+    }
 }
 
 impl Calibration {
@@ -1679,6 +1686,9 @@ impl Calibration {
              # Per benchmark: what it fits, measured and model ns of one run.\n",
             facts.model_name, facts.vendor, facts.family, facts.model, facts.threads
         );
+        if let Some(p) = &self.shared_cache {
+            s += &format!("# {}.\n", p.describe());
+        }
         for line in self.table().lines() {
             s += &format!("#   {line}\n");
         }

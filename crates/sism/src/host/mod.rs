@@ -1,10 +1,12 @@
 //! The model against the real host: its facts read once off the operating system ([`probe`]), the
-//! host preset's costs fitted on microbenchmarks ([`calibrate`]), and the model's predicted phase
+//! host preset's costs fitted on microbenchmarks ([`calibrate`]) after the shared cache's usable
+//! capacity is measured ([`shared_cache`]), and the model's predicted phase
 //! times set against measured ones ([`validate`]). `machine/` itself never reads the OS or times
 //! anything: it turns records and a configuration into time.
 
 pub mod calibrate;
 pub mod probe;
+pub mod shared_cache;
 pub mod validate;
 
 use std::path::Path;
