@@ -57,7 +57,7 @@ impl SharedCacheProbe {
 
 /// Walks random lines of buffers from twice the private cache (`l2_kb`, KiB, rounded up to a power
 /// of two) up to the reported shared cache (`l3_kb`, KiB) in powers of two, then one of
-/// `max(4 × l3_kb, 64 MiB)` for DRAM; about a second in all. `None` without a shared cache.
+/// `max(4 × l3_kb, 64 MiB)` for DRAM; a few seconds in all. `None` without a shared cache.
 pub fn probe(l2_kb: u32, l3_kb: u32) -> Option<SharedCacheProbe> {
     if l3_kb == 0 {
         return None;
