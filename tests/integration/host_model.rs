@@ -24,6 +24,16 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     }
     let m = sism::host::resolve_machine(out.to_str().unwrap()).expect("the fitted file loads");
     m.validate().expect("in range");
+    // The shared cache's usable capacity is measured (the walk is in the header) and modelled: a
+    // power of two, at most what /sys reports.
+    let reported = sism::machine::MachineConfig::host(sism::host::facts()).l3_kb;
+    if reported > 0 {
+        assert!(text.contains("# shared cache: "), "no shared-cache walk:\n{text}");
+        assert!(
+            m.l3_kb > 0 && m.l3_kb <= reported && m.l3_kb.is_power_of_two(),
+            "{m:?}"
+        );
+    }
     let threads = std::thread::available_parallelism().unwrap().get() as u32;
     assert_eq!(
         m.cores * m.threads_per_core,
