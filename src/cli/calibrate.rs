@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use sism::host::calibrate::{self, BENCHES};
+use sism::machine::host::valid_ways;
 use sism::machine::MachineConfig;
 
 use super::{create_dir, print_stdout, write_file};
@@ -28,7 +29,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let shared = sism::host::shared_cache::probe(start.l2_kb, start.l3_kb);
     if let Some(kb) = shared.as_ref().and_then(|p| p.effective_kb) {
-        use_shared_cache_kb(&mut start, kb);
+        // A power of two of at least twice the L2: some associativity up to the reported one keeps
+        // the sets a power of two.
+        start.l3_ways = valid_ways(kb, start.l3_ways).unwrap_or(1);
+        start.l3_kb = kb;
     }
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         create_dir(dir)?;
@@ -66,14 +70,4 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         note!("wrote {}", a.out.display());
     }
     Ok(())
-}
-
-/// Models a shared cache of `kb` KiB (a power of two): its ways become a power of two (at most the
-/// reported ones) so that the sets stay a power of two.
-fn use_shared_cache_kb(m: &mut MachineConfig, kb: u32) {
-    m.l3_kb = kb;
-    m.l3_ways = 1 << m.l3_ways.max(1).ilog2();
-    while m.l3_ways > 1 && (kb as u64 * 1024 / m.line_bytes as u64) < m.l3_ways as u64 {
-        m.l3_ways /= 2;
-    }
 }
