@@ -1,6 +1,7 @@
 //! Where two records files of the same frame first differ, step by step (counters, line count, line
 //! stream, as `id:stream_state`): `cargo run --release --example records_diff -- A.bin B.bin`.
 use sism::machine::records::load_records;
+use sism::machine::timing::canonical_parts;
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -47,13 +48,16 @@ fn main() {
                 y.lines.len(),
                 fields.join(", ")
             );
-            // The first access that differs (a records file's line is `id << 2 | stream state`).
+            // The first access that differs (a records file's line is an id and a stream state).
             let (la, lb): (Vec<_>, Vec<_>) = (x.lines.iter().collect(), y.lines.iter().collect());
             if let Some(k) = (0..la.len().min(lb.len())).find(|&k| la[k] != lb[k]) {
                 let show = |l: &[(u64, bool)]| {
                     l[k.saturating_sub(2)..(k + 3).min(l.len())]
                         .iter()
-                        .map(|&(v, w)| format!("{}:{}{}", v >> 2, v & 3, if w { "w" } else { "" }))
+                        .map(|&(v, w)| {
+                            let (id, stream) = canonical_parts(v);
+                            format!("{id}:{stream}{}", if w { "w" } else { "" })
+                        })
                         .collect::<Vec<_>>()
                         .join(" ")
                 };

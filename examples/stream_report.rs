@@ -3,7 +3,7 @@
 //! distance (in lines) from the access before them:
 //! `cargo run --release --example stream_report -- out/records.bin`.
 use sism::machine::records::load_records;
-use sism::machine::timing::LineMapper;
+use sism::machine::timing::{canonical_parts, LineMapper};
 use std::collections::HashSet;
 
 fn main() {
@@ -19,8 +19,8 @@ fn main() {
         let (mut acc, mut streamed, mut first, mut random, mut near16, mut near64, mut writes) =
             (0u64, 0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
         for t in &p.tasks {
-            // A records file's line is `id << 2 | stream state`.
-            let lines: Vec<u64> = t.lines.iter().map(|(l, _)| l >> 2).collect();
+            // A records file's line is an id and a stream state: the ids.
+            let lines: Vec<u64> = t.lines.iter().map(|(l, _)| canonical_parts(l).0).collect();
             let mut k = 0;
             mapper.map_each(t, p.first_touch, |a| {
                 // `id << 3 | established << 2 | young << 1 | write`.

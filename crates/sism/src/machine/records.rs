@@ -111,7 +111,7 @@ pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
                         let mut streams = StreamFollower::default();
                         t.lines.for_each(|line, write| {
                             let (line, stream) = if p.first_touch {
-                                (line >> 2, (line & 3) as u32)
+                                timing::canonical_parts(line)
                             } else {
                                 (line, streams.follow(line))
                             };
@@ -304,7 +304,7 @@ pub fn parse_records(b: &[u8]) -> Result<CanonicalRecords, String> {
             let n = t
                 .lines
                 .try_for_each(access_budget - accesses, |line, _| {
-                    let (line, stream) = (line >> 2, line & 3);
+                    let (line, stream) = timing::canonical_parts(line);
                     if stream > 2 {
                         false
                     } else if line < next_id {

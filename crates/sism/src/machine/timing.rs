@@ -813,7 +813,8 @@ impl LineMapper {
         for (line, write) in task.lines.iter() {
             let (line, stream) = if first_touch {
                 // At most 2 (a records file's lines are checked as it loads).
-                (line >> 2, (line & 3).min(2) as u32)
+                let (id, stream) = canonical_parts(line);
+                (id, stream.min(2))
             } else {
                 (line, streams.follow(line))
             };
@@ -842,6 +843,13 @@ impl LineMapper {
 #[inline]
 pub fn canonical_line(id: u32, stream: u32) -> u64 {
     (id as u64) << 2 | stream as u64
+}
+
+/// A records file's line split back into its first-touch id and stream state
+/// ([`canonical_line`]'s inverse; the state is 3 only in a corrupt file, which loading refuses).
+#[inline]
+pub fn canonical_parts(line: u64) -> (u64, u32) {
+    (line >> 2, (line & 3) as u32)
 }
 
 /// The sequential streams a task's prefetcher follows, on line addresses: the task's last
