@@ -242,6 +242,50 @@ fn serial_steps_run_on_one_core_where_the_machine_says_so() {
 }
 
 #[test]
+fn a_busy_chip_shares_dram_bandwidth_among_streams() {
+    // Two cores with a prefetcher: a streamed DRAM line costs 2 cycles alone, and on a busy chip
+    // at least its share of 32 bytes a cycle: two cores × 64 bytes / 32 = 4 cycles.
+    let m = MachineConfig {
+        prefetcher: true,
+        stream_dram_cycles: 2.0,
+        clock_ghz: 1.0,
+        dram_bandwidth_gbs: 32.0,
+        ..machine(2, 1)
+    };
+    let n = 1000u64;
+    let stream = |first: u64| {
+        task(
+            valu(10),
+            &(first..first + n).map(|l| (l, false)).collect::<Vec<_>>(),
+        )
+    };
+    let alone = simulate(&[phase("p", vec![stream(1 << 20)])], &m).phases[0].core_busy[0];
+    let busy = simulate(&[phase("p", vec![stream(1 << 20), stream(1 << 22)])], &m).phases[0].clone();
+    // Each core streams its own lines, each line 2 cycles dearer than alone; the lines of a young
+    // stream (the first `STREAM_RAMP`) pay their latency share either way.
+    assert_eq!(busy.core_busy[0], busy.core_busy[1]);
+    let extra = busy.core_busy[0] - alone;
+    let ramp = sism::machine::timing::STREAM_RAMP as u64;
+    assert!(
+        extra.is_multiple_of(2) && extra <= 2 * n && extra >= 2 * (n - ramp - 1),
+        "{extra}"
+    );
+    // With bandwidth to spare, or the two tasks on one core, nothing changes.
+    let wide = MachineConfig {
+        dram_bandwidth_gbs: 1000.0,
+        ..m.clone()
+    };
+    let two = [phase("p", vec![stream(1 << 20), stream(1 << 22)])];
+    assert_eq!(simulate(&two, &wide).phases[0].core_busy[0], alone);
+    let one_core = MachineConfig {
+        cores: 1,
+        ..m.clone()
+    };
+    let p = &simulate(&two, &one_core).phases[0];
+    assert_eq!(p.schedule[0].1, alone);
+}
+
+#[test]
 fn compute_cost_classes() {
     let m = MachineConfig::larrabee_24();
     let c = Counters {

@@ -27,7 +27,11 @@
 //! after a counted warm-up run, as their native runs are timed warm), `stream_ramp_share` (loads
 //! of runs of 16 consecutive lines at random starts in DRAM: what a young stream's miss costs),
 //! `task_overhead_cycles` and `barrier_cycles` (empty tasks through the frame's own task runner on
-//! all host threads, as frames run them). The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
+//! all host threads, as frames run them), `dram_bandwidth_gbs` (the chip's: streaming loads from
+//! DRAM on every host thread at once, each thread its own array; the model's prediction is one
+//! run a core on every core). The shared-cache and random-line benchmarks on every thread at once
+//! are checks: on the project's host they take as long as on one thread, so nothing else is
+//! scaled for a busy chip. The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
 //! gathers from L2 and DRAM, streaming stores, runs of 2, 4, 64 and 256 lines, random stores) are not fitted: their residuals show how well
 //! the fitted model carries over.
 //!
@@ -91,6 +95,8 @@ pub enum Fits {
     /// `mask_move_cycles`, by compares into masks and selects on them (after `vector_cycles`:
     /// what moving between lanes and masks adds to an add's cost).
     MaskMove,
+    /// `dram_bandwidth_gbs`, the chip's, by streaming loads from DRAM on every host thread at once.
+    DramBandwidth,
     /// `task_overhead_cycles`, by many empty tasks in one step.
     TaskOverhead,
     /// `barrier_cycles`, by one empty task in a step (the join).
@@ -230,6 +236,13 @@ enum Kind {
     /// `passes` copies of an L1-resident array into another.
     Copy {
         passes: usize,
+    },
+    /// A shared-cache or DRAM benchmark (random lines, `run` 1, or streaming loads) on every host
+    /// thread at once, one run a thread, each on its own data: in the shared cache, each thread's
+    /// array is the level's size over the thread count, so together they fit as one thread's does.
+    Loaded {
+        level: Level,
+        stream: bool,
     },
     /// `tasks` empty tasks in one step.
     Tasks {
@@ -626,6 +639,42 @@ pub const BENCHES: &[Bench] = &[
             count: 1 << 20,
             run: 4,
             store: false,
+        },
+    },
+    Bench {
+        name: "random-l3-all",
+        what: "random-l3 on every host thread at once",
+        fits: Fits::Check,
+        kind: Kind::Loaded {
+            level: Level::L3,
+            stream: false,
+        },
+    },
+    Bench {
+        name: "random-dram-all",
+        what: "random-dram on every host thread at once",
+        fits: Fits::Check,
+        kind: Kind::Loaded {
+            level: Level::Dram,
+            stream: false,
+        },
+    },
+    Bench {
+        name: "stream-l3-all",
+        what: "stream-l3 on every host thread at once",
+        fits: Fits::Check,
+        kind: Kind::Loaded {
+            level: Level::L3,
+            stream: true,
+        },
+    },
+    Bench {
+        name: "stream-dram-all",
+        what: "stream-dram on every host thread at once",
+        fits: Fits::DramBandwidth,
+        kind: Kind::Loaded {
+            level: Level::Dram,
+            stream: true,
         },
     },
 ];
@@ -1332,6 +1381,11 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             });
             (ns, tasks)
         }
+        Kind::Loaded { level, stream } => {
+            let (ns, tasks, w) = measure_loaded(level, stream, m);
+            warm = w;
+            (ns, tasks)
+        }
         Kind::Random {
             level,
             count,
@@ -1468,15 +1522,122 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
     }
 }
 
+/// [`Kind::Loaded`]: the shared-cache or DRAM benchmark on each of `m.cores` host threads at
+/// once. Each thread has its own array (and, for random lines, its own line order, so no thread
+/// fetches a line for another); in the shared cache the arrays together are the level's size. The
+/// threads start each timed run together; the measurement is the mean over the threads of each
+/// one's median run. Returns it with the runs' records (one task per thread) and the warm-up
+/// records.
+fn measure_loaded(level: Level, stream: bool, m: &MachineConfig) -> (f64, Vec<TaskRecord>, Vec<TaskRecord>) {
+    let threads = m.cores.max(1) as usize;
+    let per_thread = match level {
+        Level::L3 => level.bytes(m) / threads,
+        _ => level.bytes(m),
+    };
+    let n = (per_thread / 4).max(1024) / 64 * 64;
+    // Random lines as `random-l3`/`random-dram` take them (a count of lines per run), streams
+    // as `stream-l3`/`stream-dram` do (64 MiB of loads a run).
+    let count = if level == Level::Dram { 1 << 21 } else { 1 << 20 };
+    let passes = ((64usize << 20) / (n * 4)).max(1);
+    struct Data {
+        table: Vec<f32>,
+        lines: Vec<u32>,
+    }
+    let data: Vec<Data> = (0..threads)
+        .map(|k| {
+            let mut st = 0x2545_f491_u64 ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let table_lines = (n / 16) as u32;
+            let lines = if stream {
+                Vec::new()
+            } else {
+                (0..count).map(|_| lcg(&mut st) % table_lines).collect()
+            };
+            Data {
+                table: vec![1.0f32; n],
+                lines,
+            }
+        })
+        .collect();
+    let run = |d: &mut Data, passes: usize, r: Option<&Recorder>| -> f32 {
+        if stream {
+            run_on(
+                r,
+                StreamK {
+                    data: &mut d.table,
+                    passes,
+                    store: false,
+                },
+            )
+        } else {
+            run_on(
+                r,
+                RandomK {
+                    table: &d.table,
+                    lines: &d.lines,
+                },
+            )
+        }
+    };
+    let mut data = data;
+    let barrier = std::sync::Barrier::new(threads);
+    let medians: Vec<f64> = std::thread::scope(|sc| {
+        let handles: Vec<_> = data
+            .iter_mut()
+            .map(|d| {
+                let (barrier, run) = (&barrier, &run);
+                sc.spawn(move || {
+                    barrier.wait();
+                    black_box(run(d, passes, None)); // warm: caches, pages
+                    let mut t: Vec<f64> = (0..REPEATS)
+                        .map(|_| {
+                            barrier.wait();
+                            let t0 = Instant::now();
+                            black_box(run(d, passes, None));
+                            t0.elapsed().as_secs_f64() * 1e9
+                        })
+                        .collect();
+                    t.sort_by(f64::total_cmp);
+                    t[REPEATS / 2]
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a loaded benchmark thread"))
+            .collect()
+    });
+    let ns = medians.iter().sum::<f64>() / threads as f64;
+    let mut tasks = Vec::with_capacity(threads);
+    let mut warm = Vec::with_capacity(threads);
+    for d in &mut data {
+        let rec = Recorder::new();
+        // A stream's warm-up is one pass; a random benchmark's is a run of itself.
+        run(d, if stream { 1 } else { passes }, Some(&rec));
+        warm.extend(rec.take_tasks());
+        let rec = Recorder::new();
+        run(d, passes, Some(&rec));
+        tasks.extend(rec.take_tasks());
+    }
+    (ns, tasks, warm)
+}
+
 /// The model's prediction of one run of `x`, cycles: on a one-core `m`, or for the task benchmarks
 /// (a step of empty tasks on every host thread, its join included) on `m`'s cores.
 pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
     let mut one = m.clone();
-    let is_step = matches!(x.bench.kind, Kind::Tasks { .. });
-    if !is_step {
-        one.cores = 1;
-        one.barrier_cycles = 0;
-        one.task_overhead_cycles = 0.0;
+    // The task benchmarks keep the join and the task start; the others are one run on one core,
+    // or one run per core for the benchmarks on every thread.
+    match x.bench.kind {
+        Kind::Tasks { .. } => {}
+        Kind::Loaded { .. } => {
+            one.barrier_cycles = 0;
+            one.task_overhead_cycles = 0.0;
+        }
+        _ => {
+            one.cores = 1;
+            one.barrier_cycles = 0;
+            one.task_overhead_cycles = 0.0;
+        }
     }
     let phases = timing::simulate_frame(
         &one,
@@ -1570,6 +1731,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         if !cs.is_empty() {
             m.gather_cycles = cs.iter().sum::<f64>() / cs.len() as f64;
         }
+
         for x in measured {
             match x.bench.fits {
                 Fits::VectorLatency => solve(&mut m, x, 0.0, 100.0, &|m, c| m.latency_scale = c),
@@ -1582,6 +1744,17 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 }),
                 // Fitted on the means above.
                 Fits::Vector | Fits::Gather => {}
+                // Solved in ns a byte (the prediction rises with it), after the streaming cost it
+                // must not undercut. Where the benchmark does not move with it (one host thread:
+                // no busy chip; or the single streams already explain it) it stays as it is.
+                Fits::DramBandwidth => {
+                    let mut t = m.clone();
+                    let set = |m: &mut MachineConfig, c: f64| m.dram_bandwidth_gbs = 1.0 / c.max(1e-6);
+                    solve(&mut t, x, 1e-6, 100.0, &set);
+                    if moves(x, &t, 1.0 / t.dram_bandwidth_gbs, &set) {
+                        m.dram_bandwidth_gbs = (t.dram_bandwidth_gbs * 10.0).round() / 10.0;
+                    }
+                }
                 Fits::Atomic => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
                     m.atomic_cycles = c.round().max(1.0) as u32
                 }),
@@ -1788,7 +1961,7 @@ mod tests {
             .filter(|b| {
                 !matches!(
                     b.fits,
-                    Fits::Check | Fits::Dram | Fits::StreamDram | Fits::StreamRamp
+                    Fits::Check | Fits::Dram | Fits::StreamDram | Fits::StreamRamp | Fits::DramBandwidth
                 )
             })
             .map(|b| {

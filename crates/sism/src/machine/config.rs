@@ -133,7 +133,11 @@ pub struct MachineConfig {
     /// clocks at 1 GHz as seen by a thread in total, of which the DRAM part is ~100 ns).
     pub dram_latency_ns: f64,
     /// DRAM bandwidth of the whole chip, GB/s. Assumption: 128 GB/s (GDDR5 on a 256-bit bus, as on
-    /// GPUs of 2009–2010).
+    /// GPUs of 2009–2010). A step cannot finish before its DRAM traffic has crossed at this rate,
+    /// and on a busy chip (a step's tasks on more than one core at once) a line a prefetcher
+    /// streams from DRAM costs at least its share of it: busy cores × line bytes over the bytes a
+    /// cycle. Hosts: fitted by `sism calibrate` on streaming loads from DRAM on every host thread
+    /// at once (on the project's 2-core Zen 4 VM about 17 GB/s, where one thread alone streams 15).
     pub dram_bandwidth_gbs: f64,
     /// Cost of one vector atomic (fetch-add) instruction, cycles. Assumption: 8 (a locked RMW on the
     /// L1 line; conflict-free lanes combine in one pass).

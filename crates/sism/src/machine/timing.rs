@@ -53,6 +53,12 @@
 //!   of the core's time (the others issue while it waits), i.e. the exposed stall is
 //!   `max(0, S − (T − 1)·B) / T`, rounded up. With `T = 1` every stall is exposed. (Its cache
 //!   accesses are still replayed task after task: the threads' interleaving is not simulated.)
+//! * **A busy chip**: while a step's tasks run on `k` > 1 cores at once (a parallel step of `k`
+//!   or more tasks), a line the prefetcher streams from DRAM costs at least `k` lines over the
+//!   chip's DRAM bandwidth (`k × line_bytes / (dram_bandwidth_gbs / clock_ghz)`): every busy core
+//!   is taken to stream at once. Random misses and shared-cache hits keep their latencies (on the
+//!   project's host, random lines from DRAM and the shared cache take as long on both threads at
+//!   once as on one; streams from DRAM take 1.8 times as long).
 //! * **DRAM bandwidth**: a phase cannot finish before its DRAM traffic (L2 fills and write-backs)
 //!   has crossed at `dram_bandwidth_gbs`; any excess over the busiest core is memory stall.
 //!
@@ -402,19 +408,29 @@ impl<'a> Machine<'a> {
         let pages = ids.map(task, false, &mut chunk, |lines| {
             tally.replay(&mut cores[core], l3.as_mut(), lines);
         });
-        self.finish(&task.counters, &tally, pages, mem)
+        self.finish(&task.counters, &tally, pages, 1, mem)
     }
 
     /// The cost of a task of `counters` whose lines were replayed into `tally`, and its memory
-    /// counts added to `mem`.
+    /// counts added to `mem`. `busy`: the cores running the step's tasks at the same time (1 when
+    /// the task has the chip to itself); they share DRAM's bandwidth.
     fn finish(
         &self,
         counters: &Counters,
         tally: &LineTally,
         pages: TaskPages,
+        busy: u32,
         mem: &mut MemoryCounts,
     ) -> TaskCost {
         let m = self.config;
+        // A streamed DRAM line: the prefetcher's throughput, or on a busy chip at least this
+        // core's share of the chip's bandwidth (every busy core streaming at once).
+        let stream_dram = if busy > 1 {
+            m.stream_dram_cycles
+                .max(busy as f64 * m.line_bytes as f64 / m.dram_bytes_per_cycle())
+        } else {
+            m.stream_dram_cycles
+        };
         let (issue, atomics) = compute_cost(counters, m);
         // The host scheduler's cost of starting the task counts as synchronisation.
         let atomics = atomics.saturating_add(m.task_overhead_cycles.ceil() as u64);
@@ -473,7 +489,7 @@ impl<'a> Machine<'a> {
         );
         let streaming = (streamed[0] as f64 * m.stream_l2_cycles
             + streamed[1] as f64 * m.stream_l3_cycles
-            + streamed[2] as f64 * m.stream_dram_cycles)
+            + streamed[2] as f64 * stream_dram)
             .ceil() as u64;
         let stall = latency.saturating_add(streaming);
         // Misses a thread overlaps (out-of-order cores) divide its latency before other hardware
@@ -519,6 +535,12 @@ impl<'a> Machine<'a> {
         let n = m.cores as usize;
         // Tasks the host ran one after another: one core runs them all, in order.
         let one_core = step.serial && m.serial_steps;
+        // Cores running the step's tasks at once (they share DRAM's bandwidth).
+        let busy_cores = if one_core {
+            1
+        } else {
+            n.min(tasks.len()).max(1) as u32
+        };
         let mut busy = vec![0u64; n];
         let (mut issue, mut exposed, mut atomics) = (0u64, 0u64, 0u64);
         let mut memory = MemoryCounts::default();
@@ -536,7 +558,7 @@ impl<'a> Machine<'a> {
             let pages = mapped(task, &mut |lines| {
                 tally.replay(&mut cores[core], l3.as_mut(), lines)
             });
-            let cost = self.finish(&task.counters, &tally, pages, &mut memory);
+            let cost = self.finish(&task.counters, &tally, pages, busy_cores, &mut memory);
             busy[core] = busy[core].saturating_add(cost.cycles());
             schedule.push((core as u32, cost.cycles()));
             issue = issue.saturating_add(cost.issue);
