@@ -1744,17 +1744,19 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 }),
                 // Fitted on the means above.
                 Fits::Vector | Fits::Gather => {}
-                // Solved in ns a byte (the prediction rises with it), after the streaming cost it
-                // must not undercut. Where the benchmark does not move with it (one host thread:
-                // no busy chip; or the single streams already explain it) it stays as it is.
-                Fits::DramBandwidth => {
-                    let mut t = m.clone();
+                // Solved in ns a byte (the prediction rises with it). Where the threads streamed
+                // as fast together as alone, any bandwidth from every core's own stream rate up
+                // fits: the least of them is taken. On one host thread nothing loads the
+                // chip and the benchmark says nothing about it: it stays as it is.
+                Fits::DramBandwidth if m.cores > 1 => {
                     let set = |m: &mut MachineConfig, c: f64| m.dram_bandwidth_gbs = 1.0 / c.max(1e-6);
-                    solve(&mut t, x, 1e-6, 100.0, &set);
-                    if moves(x, &t, 1.0 / t.dram_bandwidth_gbs, &set) {
-                        m.dram_bandwidth_gbs = (t.dram_bandwidth_gbs * 10.0).round() / 10.0;
-                    }
+                    solve(&mut m, x, 1e-6, 100.0, &set);
+                    // Every core streaming at its own rate: the most the benchmark can show.
+                    let all_streaming =
+                        m.cores as f64 * m.line_bytes as f64 * m.clock_ghz / m.stream_dram_cycles.max(1e-3);
+                    m.dram_bandwidth_gbs = (m.dram_bandwidth_gbs.min(all_streaming) * 10.0).round() / 10.0;
                 }
+                Fits::DramBandwidth => {}
                 Fits::Atomic => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
                     m.atomic_cycles = c.round().max(1.0) as u32
                 }),
