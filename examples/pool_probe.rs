@@ -1,5 +1,5 @@
 //! Times a step on a fresh rayon pool after (or without) a counted frame, as `validate` runs it:
-//! `pool_probe SCENE ALGO STEP THREADS COUNTED(0|1)`.
+//! `pool_probe SCENE ALGO STEP THREADS COUNTED(0|1) [FRAMES]` (THREADS 0: the global pool; 6 frames).
 use sism::algorithms::PreparedScene;
 use sism::exec::Exec;
 use sism::render::{render_prepared, RenderOptions};
@@ -8,6 +8,10 @@ use sism::render::{render_prepared, RenderOptions};
 static GLOBAL: sism_simd::LineAlloc<mimalloc::MiMalloc> = sism_simd::LineAlloc(mimalloc::MiMalloc);
 
 fn main() {
+    // As the `sism` binary: freed pages are kept (mimalloc's `mi_option_purge_delay`, 15, at -1), so
+    // warm frames take no page faults.
+    // SAFETY: sets an option of the global allocator before any thread is started.
+    unsafe { libmimalloc_sys::mi_option_set(15, -1) };
     let a: Vec<String> = std::env::args().collect();
     let mut scene = sism::scene::Scene::load(std::path::Path::new(&a[1])).unwrap();
     scene.camera.width = 1600;
@@ -25,7 +29,8 @@ fn main() {
         drop(r);
     }
     let run = || {
-        for _ in 0..6 {
+        let frames: usize = a.get(6).map_or(6, |f| f.parse().unwrap());
+        for _ in 0..frames {
             let r = render_prepared(&prepared, algo, &params, &opts(Exec::Native));
             println!(
                 "{} {:.2} ms",

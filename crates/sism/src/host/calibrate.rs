@@ -238,8 +238,8 @@ enum Kind {
         passes: usize,
     },
     /// A shared-cache or DRAM benchmark (random lines, `run` 1, or streaming loads) on every host
-    /// thread at once, one run a thread, each on its own data: in the shared cache, each thread's
-    /// array is the level's size over the thread count, so together they fit as one thread's does.
+    /// thread at once, one run a thread, each on its own data: each thread's array is the level's
+    /// working set over the thread count, so together they live where one thread's does.
     Loaded {
         level: Level,
         stream: bool,
@@ -1524,20 +1524,19 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
 
 /// [`Kind::Loaded`]: the shared-cache or DRAM benchmark on each of `m.cores` host threads at
 /// once. Each thread has its own array (and, for random lines, its own line order, so no thread
-/// fetches a line for another); in the shared cache the arrays together are the level's size. The
+/// fetches a line for another); the arrays together are the level's working set. The
 /// threads start each timed run together; the measurement is the mean over the threads of each
 /// one's median run. Returns it with the runs' records (one task per thread) and the warm-up
 /// records.
 fn measure_loaded(level: Level, stream: bool, m: &MachineConfig) -> (f64, Vec<TaskRecord>, Vec<TaskRecord>) {
     let threads = m.cores.max(1) as usize;
-    let per_thread = match level {
-        Level::L3 => level.bytes(m) / threads,
-        _ => level.bytes(m),
-    };
+    // The arrays together are the level's working set (for DRAM eight times the largest cache:
+    // beyond it whatever the thread count), so memory stays bounded on a host of many threads.
+    let per_thread = (level.bytes(m) / threads).max(1 << 20);
     let n = (per_thread / 4).max(1024) / 64 * 64;
-    // Random lines as `random-l3`/`random-dram` take them (a count of lines per run), streams
-    // as `stream-l3`/`stream-dram` do (64 MiB of loads a run).
-    let count = if level == Level::Dram { 1 << 21 } else { 1 << 20 };
+    // Random lines as `random-l3`/`random-dram` take them, shared out among the threads (a run
+    // of at least 64K lines each); streams as `stream-l3`/`stream-dram` do (64 MiB of loads a run).
+    let count = (if level == Level::Dram { 1 << 21 } else { 1 << 20 } / threads).max(1 << 16);
     let passes = ((64usize << 20) / (n * 4)).max(1);
     struct Data {
         table: Vec<f32>,
