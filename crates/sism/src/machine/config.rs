@@ -137,7 +137,8 @@ pub struct MachineConfig {
     /// and on a busy chip (a step's tasks on more than one core at once) a line a prefetcher
     /// streams from DRAM costs at least its share of it: busy cores × line bytes over the bytes a
     /// cycle. Hosts: fitted by `sism calibrate` on streaming loads from DRAM on every host thread
-    /// at once (on the project's 2-core Zen 4 VM about 17 GB/s, where one thread alone streams 15).
+    /// at once (on the project's 2-core Zen 4 VM 39–79 GB/s from one calibration to the next, where one
+    /// thread alone streams 31–33 GB/s).
     pub dram_bandwidth_gbs: f64,
     /// Cost of one vector atomic (fetch-add) instruction, cycles. Assumption: 8 (a locked RMW on the
     /// L1 line; conflict-free lanes combine in one pass).

@@ -58,7 +58,7 @@
 //!   chip's DRAM bandwidth (`k × line_bytes / (dram_bandwidth_gbs / clock_ghz)`): every busy core
 //!   is taken to stream at once. Random misses and shared-cache hits keep their latencies (on the
 //!   project's host, random lines from DRAM and the shared cache take as long on both threads at
-//!   once as on one; streams from DRAM take 1.8 times as long).
+//!   once as on one; streams from DRAM take from as long to 1.8 times as long, with the moment).
 //! * **DRAM bandwidth**: a phase cannot finish before its DRAM traffic (L2 fills and write-backs)
 //!   has crossed at `dram_bandwidth_gbs`; any excess over the busiest core is memory stall.
 //!
