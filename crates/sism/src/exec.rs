@@ -278,6 +278,8 @@ impl Phase {
     {
         let exec = self.exec;
         let t = Instant::now();
+        // Collected first: some steps filter their tasks, and a filtered iterator has no index to
+        // split one task a job by.
         let tasks: Vec<K> = tasks.collect();
         let (outs, records): (Vec<K::Output>, Vec<Vec<TaskRecord>>) = tasks
             .into_par_iter()

@@ -243,6 +243,10 @@ enum Kind {
     Loaded {
         level: Level,
         stream: bool,
+        /// Random lines a run, shared out among the threads (its single-thread twin's count).
+        count: usize,
+        /// Bytes of streaming loads a run, each thread's (its single-thread twin's).
+        bytes: usize,
     },
     /// `tasks` empty tasks in one step.
     Tasks {
@@ -648,6 +652,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Loaded {
             level: Level::L3,
             stream: false,
+            count: 1 << 20,
+            bytes: 64 << 20,
         },
     },
     Bench {
@@ -657,6 +663,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Loaded {
             level: Level::Dram,
             stream: false,
+            count: 1 << 21,
+            bytes: 64 << 20,
         },
     },
     Bench {
@@ -666,6 +674,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Loaded {
             level: Level::L3,
             stream: true,
+            count: 1 << 20,
+            bytes: 64 << 20,
         },
     },
     Bench {
@@ -675,6 +685,8 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::Loaded {
             level: Level::Dram,
             stream: true,
+            count: 1 << 21,
+            bytes: 64 << 20,
         },
     },
 ];
@@ -1381,8 +1393,13 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
             });
             (ns, tasks)
         }
-        Kind::Loaded { level, stream } => {
-            let (ns, tasks, w) = measure_loaded(level, stream, m);
+        Kind::Loaded {
+            level,
+            stream,
+            count,
+            bytes,
+        } => {
+            let (ns, tasks, w) = measure_loaded(level, stream, count, bytes, m);
             warm = w;
             (ns, tasks)
         }
@@ -1528,21 +1545,26 @@ pub fn measure(bench: &Bench, m: &MachineConfig) -> Measured {
 /// threads start each timed run together; the measurement is the mean over the threads of each
 /// one's median run. Returns it with the runs' records (one task per thread) and the warm-up
 /// records.
-fn measure_loaded(level: Level, stream: bool, m: &MachineConfig) -> (f64, Vec<TaskRecord>, Vec<TaskRecord>) {
+fn measure_loaded(
+    level: Level,
+    stream: bool,
+    count: usize,
+    bytes: usize,
+    m: &MachineConfig,
+) -> (f64, Vec<TaskRecord>, Vec<TaskRecord>) {
     let threads = m.cores.max(1) as usize;
     // The arrays together are the level's working set (for DRAM eight times the largest cache:
     // beyond it whatever the thread count), so memory stays bounded on a host of many threads.
     let per_thread = (level.bytes(m) / threads).max(1 << 20);
     let n = (per_thread / 4).max(1024) / 64 * 64;
-    // Random lines as `random-l3`/`random-dram` take them, shared out among the threads (a run
-    // of at least 64K lines each); streams as `stream-l3`/`stream-dram` do (64 MiB of loads a run).
-    let count = (if level == Level::Dram { 1 << 21 } else { 1 << 20 } / threads).max(1 << 16);
-    let passes = ((64usize << 20) / (n * 4)).max(1);
+    // Random lines shared out among the threads (a run of at least 64K lines each).
+    let count = (count / threads).max(1 << 16);
+    let passes = (bytes / (n * 4)).max(1);
     struct Data {
         table: Vec<f32>,
         lines: Vec<u32>,
     }
-    let data: Vec<Data> = (0..threads)
+    let mut data: Vec<Data> = (0..threads)
         .map(|k| {
             let mut st = 0x2545_f491_u64 ^ (k as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
             let table_lines = (n / 16) as u32;
@@ -1577,7 +1599,6 @@ fn measure_loaded(level: Level, stream: bool, m: &MachineConfig) -> (f64, Vec<Ta
             )
         }
     };
-    let mut data = data;
     let barrier = std::sync::Barrier::new(threads);
     let medians: Vec<f64> = std::thread::scope(|sc| {
         let handles: Vec<_> = data
@@ -1626,16 +1647,11 @@ pub fn predict(x: &Measured, m: &MachineConfig) -> f64 {
     let mut one = m.clone();
     // The task benchmarks keep the join and the task start; the others are one run on one core,
     // or one run per core for the benchmarks on every thread.
-    match x.bench.kind {
-        Kind::Tasks { .. } => {}
-        Kind::Loaded { .. } => {
-            one.barrier_cycles = 0;
-            one.task_overhead_cycles = 0.0;
-        }
-        _ => {
+    if !matches!(x.bench.kind, Kind::Tasks { .. }) {
+        one.barrier_cycles = 0;
+        one.task_overhead_cycles = 0.0;
+        if !matches!(x.bench.kind, Kind::Loaded { .. }) {
             one.cores = 1;
-            one.barrier_cycles = 0;
-            one.task_overhead_cycles = 0.0;
         }
     }
     let phases = timing::simulate_frame(
@@ -1730,7 +1746,6 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         if !cs.is_empty() {
             m.gather_cycles = cs.iter().sum::<f64>() / cs.len() as f64;
         }
-
         for x in measured {
             match x.bench.fits {
                 Fits::VectorLatency => solve(&mut m, x, 0.0, 100.0, &|m, c| m.latency_scale = c),
