@@ -9,8 +9,9 @@
 //!
 //! | `SISM_SIMD`         | backend                                                 |
 //! |---------------------|---------------------------------------------------------|
-//! | unset, `auto`       | best available: AVX-512, else portable-avx2, else portable |
+//! | unset, `auto`       | best available: AVX-512, else AVX2, else portable-avx2, else portable |
 //! | `avx512`            | AVX-512 (falls back to the best available, with a warning) |
+//! | `avx2`              | the AVX2 backend: two 256-bit registers a vector          |
 //! | `portable`          | portable code (compiled for AVX2+FMA when the CPU has them) |
 //! | `portable-baseline` | portable code compiled for the baseline target only      |
 
@@ -65,6 +66,7 @@ fn encode(k: Option<BackendKind>) -> u8 {
         Some(BackendKind::Avx512) => 1,
         Some(BackendKind::PortableAvx2) => 2,
         Some(BackendKind::Portable) => 3,
+        Some(BackendKind::Avx2) => 4,
     }
 }
 fn decode(v: u8) -> Option<BackendKind> {
@@ -72,6 +74,7 @@ fn decode(v: u8) -> Option<BackendKind> {
         1 => Some(BackendKind::Avx512),
         2 => Some(BackendKind::PortableAvx2),
         3 => Some(BackendKind::Portable),
+        4 => Some(BackendKind::Avx2),
         _ => None,
     }
 }
@@ -85,6 +88,8 @@ pub fn available(kind: BackendKind) -> bool {
         BackendKind::Portable => true,
         #[cfg(target_arch = "x86_64")]
         BackendKind::Avx512 => crate::avx512::detected(),
+        #[cfg(target_arch = "x86_64")]
+        BackendKind::Avx2 => crate::avx2::detected(),
         #[cfg(target_arch = "x86_64")]
         BackendKind::PortableAvx2 => {
             std::is_x86_feature_detected!("avx2")
@@ -102,6 +107,7 @@ pub fn available(kind: BackendKind) -> bool {
 pub fn available_backends() -> Vec<BackendKind> {
     [
         BackendKind::Avx512,
+        BackendKind::Avx2,
         BackendKind::PortableAvx2,
         BackendKind::Portable,
     ]
@@ -123,12 +129,13 @@ fn best_portable() -> BackendKind {
     }
 }
 
-/// Parse a `SISM_SIMD` value (`auto`, `avx512`, `portable`,
+/// Parse a `SISM_SIMD` value (`auto`, `avx512`, `avx2`, `portable`,
 /// `portable-baseline`; case-insensitive). `None` for unknown values.
 pub fn parse_backend(s: &str) -> Option<Option<BackendKind>> {
     match s.trim().to_ascii_lowercase().as_str() {
         "" | "auto" | "native" => Some(None),
         "avx512" | "avx-512" => Some(Some(BackendKind::Avx512)),
+        "avx2" => Some(Some(BackendKind::Avx2)),
         "portable" => Some(Some(best_portable())),
         "portable-avx2" => Some(Some(BackendKind::PortableAvx2)),
         "portable-baseline" | "baseline" | "scalar" => Some(Some(BackendKind::Portable)),
@@ -142,7 +149,7 @@ fn from_env() -> BackendKind {
             Ok(v) => match parse_backend(&v) {
                 Some(r) => r,
                 None => {
-                    eprintln!("sism-simd: ignoring unknown SISM_SIMD={v:?} (use auto, avx512, portable, portable-baseline)");
+                    eprintln!("sism-simd: ignoring unknown SISM_SIMD={v:?} (use auto, avx512, avx2, portable, portable-baseline)");
                     None
                 }
             },
@@ -202,6 +209,12 @@ pub fn run_with<K: Kernel>(kind: BackendKind, k: K) -> K::Output {
             unsafe { x86::run_avx512(k) }
         }
         #[cfg(target_arch = "x86_64")]
+        BackendKind::Avx2 => {
+            assert!(crate::avx2::detected(), "sism-simd: AVX2 not available");
+            // SAFETY: features detected just above.
+            unsafe { x86::run_avx2(k) }
+        }
+        #[cfg(target_arch = "x86_64")]
         BackendKind::PortableAvx2 => {
             assert!(available(kind), "sism-simd: AVX2+FMA not available");
             // SAFETY: features detected just above.
@@ -251,6 +264,7 @@ fn run_portable<K: Kernel>(k: K) -> K::Output {
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::Kernel;
+    use crate::avx2::Avx2;
     use crate::avx512::Avx512;
     use crate::portable::Portable;
 
@@ -261,6 +275,15 @@ mod x86 {
     pub(super) unsafe fn run_avx512<K: Kernel>(k: K) -> K::Output {
         // SAFETY: guaranteed by the caller.
         k.run(unsafe { Avx512::new_unchecked() })
+    }
+
+    /// # Safety
+    /// The CPU must support `crate::avx2::FEATURES`.
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,popcnt")]
+    #[inline(never)]
+    pub(super) unsafe fn run_avx2<K: Kernel>(k: K) -> K::Output {
+        // SAFETY: guaranteed by the caller.
+        k.run(unsafe { Avx2::new_unchecked() })
     }
 
     /// # Safety

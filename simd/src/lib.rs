@@ -13,7 +13,8 @@
 //!   the context (`s.fmadd(a, b, c)`, `s.mask_gather_f(src, m, mem, idx)`),
 //!   with associated types `S::F32` / `S::I32` for the registers.
 //! * **Backends.** [`Avx512`] maps each method to `_mm512_*` intrinsics
-//!   (`x86_64` only); [`Portable`] uses 64-byte aligned `[f32; 16]` arrays and
+//!   (`x86_64` only); [`Avx2`] keeps each vector in two 256-bit registers
+//!   (`x86_64` CPUs without AVX-512); [`Portable`] uses 64-byte aligned `[f32; 16]` arrays and
 //!   lane loops that LLVM auto-vectorizes, on any target. The portable
 //!   backend *defines* the semantics; AVX-512 matches it bit for bit (min/max
 //!   follow x86 `minps` rules, float→int conversions give `i32::MIN` on
@@ -90,6 +91,8 @@ mod record;
 mod simd;
 
 #[cfg(target_arch = "x86_64")]
+pub mod avx2;
+#[cfg(target_arch = "x86_64")]
 pub mod avx512;
 
 pub use alloc::{HoldFrees, LineAlloc, GAP_LINES};
@@ -108,6 +111,8 @@ pub use simd::{
     ASIN_MAX_REL_ERR, ATAN2_MAX_ABS_ERR, ATAN2_MAX_REL_ERR, LANES,
 };
 
+#[cfg(target_arch = "x86_64")]
+pub use avx2::Avx2;
 #[cfg(target_arch = "x86_64")]
 pub use avx512::Avx512;
 

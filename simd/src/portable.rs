@@ -140,7 +140,7 @@ pub(crate) fn cvtt(x: f32) -> i32 {
     }
 }
 #[inline(always)]
-fn compress<T: Copy + Default>(m: Mask16, v: [T; 16]) -> [T; 16] {
+pub(crate) fn compress<T: Copy + Default>(m: Mask16, v: [T; 16]) -> [T; 16] {
     let mut o = [T::default(); 16];
     let mut n = 0;
     for i in 0..16 {
@@ -152,7 +152,7 @@ fn compress<T: Copy + Default>(m: Mask16, v: [T; 16]) -> [T; 16] {
     o
 }
 #[inline(always)]
-fn expand<T: Copy + Default>(src: [T; 16], m: Mask16, v: &[T]) -> [T; 16] {
+pub(crate) fn expand<T: Copy + Default>(src: [T; 16], m: Mask16, v: &[T]) -> [T; 16] {
     let mut o = src;
     let mut n = 0;
     for i in 0..16 {

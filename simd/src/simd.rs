@@ -12,6 +12,9 @@ pub const LANES: usize = 16;
 pub enum BackendKind {
     /// Native AVX-512 (`x86_64` with avx512f/cd/bw/dq/vl detected at run time).
     Avx512,
+    /// Native AVX2 (`x86_64` with avx2/fma/bmi1/bmi2/popcnt detected at run time): each 16-lane
+    /// vector is two 256-bit registers ([`crate::avx2`]).
+    Avx2,
     /// The portable array backend, compiled for AVX2+FMA (`x86_64` only,
     /// when detected). Same source as [`BackendKind::Portable`]; only the
     /// code generation differs, results are identical.
@@ -21,10 +24,11 @@ pub enum BackendKind {
 }
 
 impl BackendKind {
-    /// Short lower-case name (`avx512`, `portable-avx2`, `portable`).
+    /// Short lower-case name (`avx512`, `avx2`, `portable-avx2`, `portable`).
     pub fn name(self) -> &'static str {
         match self {
             BackendKind::Avx512 => "avx512",
+            BackendKind::Avx2 => "avx2",
             BackendKind::PortableAvx2 => "portable-avx2",
             BackendKind::Portable => "portable",
         }

@@ -20,6 +20,7 @@ impl Kernel for Which {
 fn selection() {
     assert_eq!(parse_backend("auto"), Some(None));
     assert_eq!(parse_backend("AVX512"), Some(Some(BackendKind::Avx512)));
+    assert_eq!(parse_backend("avx2"), Some(Some(BackendKind::Avx2)));
     assert_eq!(
         parse_backend("portable-baseline"),
         Some(Some(BackendKind::Portable))
@@ -46,10 +47,9 @@ fn selection() {
     let k = run_native(Which);
     assert_eq!(
         k,
-        if sel == BackendKind::Avx512 {
-            BackendKind::Avx512
-        } else {
-            BackendKind::Portable
+        match sel {
+            BackendKind::Avx512 | BackendKind::Avx2 => sel,
+            _ => BackendKind::Portable,
         }
     );
 
@@ -61,6 +61,10 @@ fn selection() {
         assert_eq!(run_native(Which), BackendKind::Avx512);
     } else {
         println!("note: AVX-512 not detected; skipping forced-AVX-512 check");
+    }
+    if available(BackendKind::Avx2) {
+        set_backend(Some(BackendKind::Avx2));
+        assert_eq!(run_native(Which), BackendKind::Avx2);
     }
     set_backend(None);
     assert_eq!(selected_backend(), sel);

@@ -323,6 +323,7 @@ fn fast_rcp_rsqrt_bounds() {
         .collect();
     let backends = [
         BackendKind::Avx512,
+        BackendKind::Avx2,
         BackendKind::PortableAvx2,
         BackendKind::Portable,
     ];
