@@ -1,6 +1,6 @@
 //! The native AVX2 backend (`x86_64` only): a 16-lane vector as two 256-bit registers.
 //!
-//! `F32 = `[`F32x8x2`]` ` (two `__m256`), `I32 = `[`I32x8x2`] (two `__m256i`); masks stay
+//! `F32` is [`F32x8x2`] (two `__m256`), `I32` is [`I32x8x2`] (two `__m256i`); masks stay
 //! [`Mask16`] bits, spread into lane masks (`vpcmpeqd` against one bit per lane) where an
 //! operation takes one and packed with `vmovmskps` where a compare makes one. This is what the
 //! portable backend's lane loops compile to at best; written with intrinsics, every 16-lane value
@@ -21,7 +21,7 @@
 //! never touches a lane its mask leaves off.
 
 use crate::common::{self, masked_extent};
-use crate::portable::{compress, expand};
+use crate::portable::expand;
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
 use core::arch::x86_64::*;
@@ -86,17 +86,6 @@ fn spread(m: Mask16) -> (__m256i, __m256i) {
         (
             _mm256_cmpeq_epi32(_mm256_and_si256(lo, bits), bits),
             _mm256_cmpeq_epi32(_mm256_and_si256(hi, bits), bits),
-        )
-    }
-}
-
-/// The lanes of `n` (0..=8) first lanes: the mask `vmaskmov` takes.
-#[inline(always)]
-fn first_lanes(n: usize) -> __m256i {
-    unsafe {
-        _mm256_cmpgt_epi32(
-            _mm256_set1_epi32(n as i32),
-            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
         )
     }
 }
@@ -211,34 +200,62 @@ fn check_idx(op: &str, m: Mask16, idx: I32x8x2, len: usize) {
     }
 }
 
-/// Lanes 0–7 of `v` whose bit of `m` (low 8 bits) is set, moved to the front; the rest are
-/// whatever the permutation brings (callers only use the first `popcnt(m)`).
+/// The numbers of the lanes (0–7) whose bit of `bits` (8 bits) is set, packed one a byte from
+/// the lowest (BMI2: a byte of ones per set bit, then the identity's bytes it selects).
 #[inline(always)]
-fn compress8(v: __m256i, m: u32) -> __m256i {
+fn lane_numbers(bits: u32) -> u64 {
     unsafe {
-        // One byte of 0xFF per selected lane, then the selected lanes' numbers packed (BMI2).
-        let bytes = _pdep_u64(m as u64, 0x0101_0101_0101_0101).wrapping_mul(0xFF);
-        let order = _pext_u64(0x0706_0504_0302_0100, bytes);
-        _mm256_permutevar8x32_epi32(v, _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(order as i64)))
+        let bytes = _pdep_u64(bits as u64, 0x0101_0101_0101_0101).wrapping_mul(0xFF);
+        _pext_u64(0x0706_0504_0302_0100, bytes)
     }
 }
 
-/// Store the active lanes of `v` packed to the front of `mem` (which holds at least
-/// `m.count()` elements).
+/// Eight lane numbers (bytes) as the 32-bit indices `vpermd` takes.
 #[inline(always)]
-fn compress_store(mem: *mut i32, m: Mask16, v: I32x8x2) {
-    let lo_bits = (m.0 & 0xFF) as u32;
-    let n_lo = lo_bits.count_ones() as usize;
-    let n_hi = (m.0 >> 8).count_ones() as usize;
+fn indices(bytes: u64) -> __m256i {
+    unsafe { _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(bytes as i64)) }
+}
+
+/// The active lanes of `v` moved to the front, in lane order; lanes from `m.count()` on hold
+/// whatever the permutation brings (callers zero or skip them).
+#[inline(always)]
+fn compress16(v: I32x8x2, m: Mask16) -> I32x8x2 {
+    let (lo, hi) = ((m.0 & 0xFF) as u32, (m.0 >> 8) as u32);
+    // The high half's lane numbers (8–15) follow the low half's.
+    let order = lane_numbers(lo) as u128
+        | ((lane_numbers(hi) + 0x0808_0808_0808_0808) as u128) << (8 * lo.count_ones());
+    I32x8x2(
+        permute_half(v, indices(order as u64)),
+        permute_half(v, indices((order >> 64) as u64)),
+    )
+}
+
+/// Store the active lanes of `v` packed to the front of `mem`, which holds at least
+/// `m.count()` elements; nothing beyond them is written.
+#[inline(always)]
+fn compress_store(mem: &mut [i32], m: Mask16, v: I32x8x2) {
+    let n = m.count() as usize;
+    let c = compress16(v, m);
+    let keep = Mask16::first_n(n);
+    if mem.len() >= 16 {
+        // Read, blend, write back (the exclusive borrow makes rewriting the elements past `n`
+        // with their own values unobservable); `vpmaskmovd` stores are slow on AMD.
+        let p = mem.as_mut_ptr() as *mut __m256i;
+        unsafe {
+            let old = I32x8x2(_mm256_loadu_si256(p), _mm256_loadu_si256(p.add(1)));
+            let new = blend_i(old, keep, c);
+            _mm256_storeu_si256(p, new.0);
+            _mm256_storeu_si256(p.add(1), new.1);
+        }
+        return;
+    }
+    let (lo, hi) = spread(keep);
+    let p = mem.as_mut_ptr();
     unsafe {
-        _mm256_maskstore_epi32(mem, first_lanes(n_lo), compress8(v.0, lo_bits));
-        // `wrapping_add`: with no high lane active the address may lie past the slice, and
-        // the all-off mask never touches it.
-        _mm256_maskstore_epi32(
-            mem.wrapping_add(n_lo),
-            first_lanes(n_hi),
-            compress8(v.1, (m.0 >> 8) as u32),
-        );
+        // `wrapping_add`: with fewer than 9 elements the high half's mask is all off and the
+        // store touches nothing.
+        _mm256_maskstore_epi32(p, lo, c.0);
+        _mm256_maskstore_epi32(p.wrapping_add(8), hi, c.1);
     }
 }
 
@@ -542,7 +559,7 @@ impl Simd for Avx2 {
     }
     #[inline(always)]
     fn compress_f(self, m: Mask16, v: F32x8x2) -> F32x8x2 {
-        vec_f(compress(m, arr_f(v)))
+        self.cast_i_f(self.compress_i(m, self.cast_f_i(v)))
     }
     #[inline(always)]
     fn expand_f(self, m: Mask16, v: F32x8x2) -> F32x8x2 {
@@ -723,7 +740,11 @@ impl Simd for Avx2 {
     }
     #[inline(always)]
     fn compress_i(self, m: Mask16, v: I32x8x2) -> I32x8x2 {
-        vec_i(compress(m, arr_i(v)))
+        blend_i(
+            self.splat_i(0),
+            Mask16::first_n(m.count() as usize),
+            compress16(v, m),
+        )
     }
     #[inline(always)]
     fn expand_i(self, m: Mask16, v: I32x8x2) -> I32x8x2 {
@@ -976,14 +997,14 @@ impl Simd for Avx2 {
     fn compress_store_f(self, mem: &mut [f32], m: Mask16, v: F32x8x2) -> usize {
         let n = m.count() as usize;
         need("compress_store_f", mem.len(), n);
-        compress_store(mem.as_mut_ptr() as *mut i32, m, self.cast_f_i(v));
+        compress_store(as_i32_mut_f32(mem), m, self.cast_f_i(v));
         n
     }
     #[inline(always)]
     fn compress_store_i(self, mem: &mut [i32], m: Mask16, v: I32x8x2) -> usize {
         let n = m.count() as usize;
         need("compress_store_i", mem.len(), n);
-        compress_store(mem.as_mut_ptr(), m, v);
+        compress_store(mem, m, v);
         n
     }
     #[inline(always)]
