@@ -20,7 +20,7 @@
 //! intrinsics are preceded by bounds checks on every active lane, and a masked load or store
 //! never touches a lane its mask leaves off.
 
-use crate::common::{self, masked_extent};
+use crate::common::{self, aligned, masked_extent, need};
 use crate::portable::expand;
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
@@ -167,24 +167,6 @@ fn vec_f(a: [f32; 16]) -> F32x8x2 {
 fn vec_i(a: [i32; 16]) -> I32x8x2 {
     // SAFETY: as above.
     unsafe { core::mem::transmute(a) }
-}
-
-#[inline(always)]
-#[track_caller]
-fn need(op: &str, mem_len: usize, n: usize) {
-    if mem_len < n {
-        common::short_slice(op, n, mem_len);
-    }
-}
-
-#[inline(always)]
-#[track_caller]
-fn aligned<T>(op: &str, mem: &[T]) {
-    let addr = mem.as_ptr() as usize;
-    if !addr.is_multiple_of(64) {
-        common::misaligned(op, addr);
-    }
-    need(op, mem.len(), 16);
 }
 
 /// Bounds check of active lane indices: an unsigned compare per half and a mask test.
@@ -781,46 +763,7 @@ impl Simd for Avx2 {
         unsafe { F32x8x2(_mm256_castsi256_ps(a.0), _mm256_castsi256_ps(a.1)) }
     }
 
-    #[inline(always)]
-    fn mask_and(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_or(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 | b.0)
-    }
-    #[inline(always)]
-    fn mask_xor(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 ^ b.0)
-    }
-    #[inline(always)]
-    fn mask_andn(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(!a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_not(self, a: Mask16) -> Mask16 {
-        Mask16(!a.0)
-    }
-    #[inline(always)]
-    fn mask_popcnt(self, a: Mask16) -> u32 {
-        a.count()
-    }
-    #[inline(always)]
-    fn mask_any(self, a: Mask16) -> bool {
-        a.any()
-    }
-    #[inline(always)]
-    fn mask_all(self, a: Mask16) -> bool {
-        a.all()
-    }
-    #[inline(always)]
-    fn mask_first(self, a: Mask16) -> Option<u32> {
-        a.first()
-    }
-    #[inline(always)]
-    fn mask_first_n(self, n: usize) -> Mask16 {
-        Mask16::first_n(n)
-    }
+    crate::common::native_mask_ops!();
 
     #[inline(always)]
     fn load_f(self, mem: &[f32]) -> F32x8x2 {
@@ -980,18 +923,12 @@ impl Simd for Avx2 {
     fn mask_scatter_f(self, mem: &mut [f32], m: Mask16, idx: I32x8x2, v: F32x8x2) {
         check_idx("scatter_f", m, idx, mem.len());
         // No scatter in AVX2: lane by lane, in lane order (a later lane's write wins).
-        let (idx, v) = (arr_i(idx), arr_f(v));
-        for i in m.iter() {
-            mem[idx[i] as usize] = v[i];
-        }
+        common::scatter_lanes(mem, m, &arr_i(idx), &arr_f(v));
     }
     #[inline(always)]
     fn mask_scatter_i(self, mem: &mut [i32], m: Mask16, idx: I32x8x2, v: I32x8x2) {
         check_idx("scatter_i", m, idx, mem.len());
-        let (idx, v) = (arr_i(idx), arr_i(v));
-        for i in m.iter() {
-            mem[idx[i] as usize] = v[i];
-        }
+        common::scatter_lanes(mem, m, &arr_i(idx), &arr_i(v));
     }
     #[inline(always)]
     fn compress_store_f(self, mem: &mut [f32], m: Mask16, v: F32x8x2) -> usize {
@@ -1023,14 +960,7 @@ impl Simd for Avx2 {
     fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: I32x8x2, val: I32x8x2) -> I32x8x2 {
         check_idx("fetch_add_i", m, idx, mem.len());
         // Lane by lane in lane order: a duplicate index sees its earlier lanes' adds.
-        let (idx, val) = (arr_i(idx), arr_i(val));
-        let mut o = [0i32; 16];
-        for i in m.iter() {
-            let p = &mut mem[idx[i] as usize];
-            o[i] = *p;
-            *p = p.wrapping_add(val[i]);
-        }
-        vec_i(o)
+        vec_i(common::fetch_add_lanes(mem, m, &arr_i(idx), &arr_i(val)))
     }
     #[inline(always)]
     fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: I32x8x2, val: I32x8x2) -> I32x8x2 {

@@ -16,7 +16,7 @@
 //! is the only precondition of the arithmetic intrinsics. Memory intrinsics
 //! are additionally preceded by bounds checks on every active lane.
 
-use crate::common::{self, masked_extent};
+use crate::common::{self, aligned, masked_extent, need};
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
 use core::arch::x86_64::*;
@@ -65,24 +65,6 @@ pub fn detected() -> bool {
 #[inline(always)]
 fn k(m: Mask16) -> __mmask16 {
     m.0
-}
-
-#[inline(always)]
-#[track_caller]
-fn need(op: &str, mem_len: usize, n: usize) {
-    if mem_len < n {
-        common::short_slice(op, n, mem_len);
-    }
-}
-
-#[inline(always)]
-#[track_caller]
-fn aligned<T>(op: &str, mem: &[T]) {
-    let addr = mem.as_ptr() as usize;
-    if !addr.is_multiple_of(64) {
-        common::misaligned(op, addr);
-    }
-    need(op, mem.len(), 16);
 }
 
 /// Bounds check of active lane indices: one unsigned compare + mask test.
@@ -573,46 +555,7 @@ impl Simd for Avx512 {
         unsafe { _mm512_castsi512_ps(a) }
     }
 
-    #[inline(always)]
-    fn mask_and(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_or(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 | b.0)
-    }
-    #[inline(always)]
-    fn mask_xor(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 ^ b.0)
-    }
-    #[inline(always)]
-    fn mask_andn(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(!a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_not(self, a: Mask16) -> Mask16 {
-        Mask16(!a.0)
-    }
-    #[inline(always)]
-    fn mask_popcnt(self, a: Mask16) -> u32 {
-        a.count()
-    }
-    #[inline(always)]
-    fn mask_any(self, a: Mask16) -> bool {
-        a.any()
-    }
-    #[inline(always)]
-    fn mask_all(self, a: Mask16) -> bool {
-        a.all()
-    }
-    #[inline(always)]
-    fn mask_first(self, a: Mask16) -> Option<u32> {
-        a.first()
-    }
-    #[inline(always)]
-    fn mask_first_n(self, n: usize) -> Mask16 {
-        Mask16::first_n(n)
-    }
+    crate::common::native_mask_ops!();
 
     #[inline(always)]
     fn load_f(self, mem: &[f32]) -> __m512 {

@@ -42,6 +42,95 @@ pub(crate) fn bad_lane(lane: usize) -> ! {
     panic!("sism-simd: lane {lane} out of range 0..16")
 }
 
+/// Panics unless the slice holds `n` elements (a contiguous access's extent).
+#[inline(always)]
+#[track_caller]
+pub(crate) fn need(op: &str, mem_len: usize, n: usize) {
+    if mem_len < n {
+        short_slice(op, n, mem_len);
+    }
+}
+
+/// Panics unless `mem` starts on a 64-byte boundary and holds a whole vector.
+#[inline(always)]
+#[track_caller]
+pub(crate) fn aligned<T>(op: &str, mem: &[T]) {
+    let addr = mem.as_ptr() as usize;
+    if !addr.is_multiple_of(64) {
+        misaligned(op, addr);
+    }
+    need(op, mem.len(), 16);
+}
+
+/// Scatter lane by lane in lane order (a later lane's write wins); indices already checked.
+#[inline(always)]
+pub(crate) fn scatter_lanes<T: Copy>(mem: &mut [T], m: Mask16, idx: &[i32; 16], v: &[T; 16]) {
+    for i in m.iter() {
+        mem[idx[i] as usize] = v[i];
+    }
+}
+
+/// Private fetch-add lane by lane in lane order (a duplicate index sees its earlier lanes' adds):
+/// the reference semantics; indices already checked.
+#[inline(always)]
+pub(crate) fn fetch_add_lanes(mem: &mut [i32], m: Mask16, idx: &[i32; 16], val: &[i32; 16]) -> [i32; 16] {
+    let mut o = [0i32; 16];
+    for i in m.iter() {
+        let p = &mut mem[idx[i] as usize];
+        o[i] = *p;
+        *p = p.wrapping_add(val[i]);
+    }
+    o
+}
+
+/// The mask-register methods of [`crate::Simd`], the same on every native backend (a
+/// [`Mask16`] is their mask on each); the counting context has its own, which count.
+macro_rules! native_mask_ops {
+    () => {
+        #[inline(always)]
+        fn mask_and(self, a: Mask16, b: Mask16) -> Mask16 {
+            Mask16(a.0 & b.0)
+        }
+        #[inline(always)]
+        fn mask_or(self, a: Mask16, b: Mask16) -> Mask16 {
+            Mask16(a.0 | b.0)
+        }
+        #[inline(always)]
+        fn mask_xor(self, a: Mask16, b: Mask16) -> Mask16 {
+            Mask16(a.0 ^ b.0)
+        }
+        #[inline(always)]
+        fn mask_andn(self, a: Mask16, b: Mask16) -> Mask16 {
+            Mask16(!a.0 & b.0)
+        }
+        #[inline(always)]
+        fn mask_not(self, a: Mask16) -> Mask16 {
+            Mask16(!a.0)
+        }
+        #[inline(always)]
+        fn mask_popcnt(self, a: Mask16) -> u32 {
+            a.count()
+        }
+        #[inline(always)]
+        fn mask_any(self, a: Mask16) -> bool {
+            a.any()
+        }
+        #[inline(always)]
+        fn mask_all(self, a: Mask16) -> bool {
+            a.all()
+        }
+        #[inline(always)]
+        fn mask_first(self, a: Mask16) -> Option<u32> {
+            a.first()
+        }
+        #[inline(always)]
+        fn mask_first_n(self, n: usize) -> Mask16 {
+            Mask16::first_n(n)
+        }
+    };
+}
+pub(crate) use native_mask_ops;
+
 /// Check that every active lane index is in `0..len`.
 #[inline(always)]
 #[track_caller]

@@ -91,13 +91,8 @@ pub fn available(kind: BackendKind) -> bool {
         #[cfg(target_arch = "x86_64")]
         BackendKind::Avx2 => crate::avx2::detected(),
         #[cfg(target_arch = "x86_64")]
-        BackendKind::PortableAvx2 => {
-            std::is_x86_feature_detected!("avx2")
-                && std::is_x86_feature_detected!("fma")
-                && std::is_x86_feature_detected!("bmi1")
-                && std::is_x86_feature_detected!("bmi2")
-                && std::is_x86_feature_detected!("popcnt")
-        }
+        // The portable code's AVX2 entry point is compiled for the AVX2 backend's features.
+        BackendKind::PortableAvx2 => crate::avx2::detected(),
         #[cfg(not(target_arch = "x86_64"))]
         _ => false,
     }

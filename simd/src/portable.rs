@@ -9,7 +9,7 @@
 // Indexed lane loops are deliberate: they are what LLVM vectorizes best.
 #![allow(clippy::needless_range_loop)]
 
-use crate::common::{self, check_indices, masked_extent};
+use crate::common::{self, aligned, check_indices, masked_extent, need};
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
 use core::sync::atomic::AtomicI32;
@@ -162,22 +162,6 @@ pub(crate) fn expand<T: Copy + Default>(src: [T; 16], m: Mask16, v: &[T]) -> [T;
         }
     }
     o
-}
-#[inline(always)]
-#[track_caller]
-fn need(op: &str, mem_len: usize, n: usize) {
-    if mem_len < n {
-        common::short_slice(op, n, mem_len);
-    }
-}
-#[inline(always)]
-#[track_caller]
-fn aligned<T>(op: &str, mem: &[T]) {
-    let addr = mem.as_ptr() as usize;
-    if !addr.is_multiple_of(64) {
-        common::misaligned(op, addr);
-    }
-    need(op, mem.len(), 16);
 }
 
 impl Simd for Portable {
@@ -610,46 +594,7 @@ impl Simd for Portable {
         F32x16(a.0.map(|x| f32::from_bits(x as u32)))
     }
 
-    #[inline(always)]
-    fn mask_and(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_or(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 | b.0)
-    }
-    #[inline(always)]
-    fn mask_xor(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(a.0 ^ b.0)
-    }
-    #[inline(always)]
-    fn mask_andn(self, a: Mask16, b: Mask16) -> Mask16 {
-        Mask16(!a.0 & b.0)
-    }
-    #[inline(always)]
-    fn mask_not(self, a: Mask16) -> Mask16 {
-        Mask16(!a.0)
-    }
-    #[inline(always)]
-    fn mask_popcnt(self, a: Mask16) -> u32 {
-        a.count()
-    }
-    #[inline(always)]
-    fn mask_any(self, a: Mask16) -> bool {
-        a.any()
-    }
-    #[inline(always)]
-    fn mask_all(self, a: Mask16) -> bool {
-        a.all()
-    }
-    #[inline(always)]
-    fn mask_first(self, a: Mask16) -> Option<u32> {
-        a.first()
-    }
-    #[inline(always)]
-    fn mask_first_n(self, n: usize) -> Mask16 {
-        Mask16::first_n(n)
-    }
+    crate::common::native_mask_ops!();
 
     #[inline(always)]
     fn load_f(self, mem: &[f32]) -> F32x16 {
@@ -790,16 +735,12 @@ impl Simd for Portable {
     #[inline(always)]
     fn mask_scatter_f(self, mem: &mut [f32], m: Mask16, idx: I32x16, v: F32x16) {
         check_indices("scatter_f", m, &idx.0, common::index_limit(mem.len()) as usize);
-        for i in m.iter() {
-            mem[idx.0[i] as usize] = v.0[i];
-        }
+        common::scatter_lanes(mem, m, &idx.0, &v.0);
     }
     #[inline(always)]
     fn mask_scatter_i(self, mem: &mut [i32], m: Mask16, idx: I32x16, v: I32x16) {
         check_indices("scatter_i", m, &idx.0, common::index_limit(mem.len()) as usize);
-        for i in m.iter() {
-            mem[idx.0[i] as usize] = v.0[i];
-        }
+        common::scatter_lanes(mem, m, &idx.0, &v.0);
     }
     #[inline(always)]
     fn compress_store_f(self, mem: &mut [f32], m: Mask16, v: F32x16) -> usize {
@@ -830,13 +771,7 @@ impl Simd for Portable {
     #[inline(always)]
     fn fetch_add_i(self, mem: &mut [i32], m: Mask16, idx: I32x16, val: I32x16) -> I32x16 {
         check_indices("fetch_add_i", m, &idx.0, common::index_limit(mem.len()) as usize);
-        let mut o = [0i32; 16];
-        for i in m.iter() {
-            let p = &mut mem[idx.0[i] as usize];
-            o[i] = *p;
-            *p = p.wrapping_add(val.0[i]);
-        }
-        I32x16(o)
+        I32x16(common::fetch_add_lanes(mem, m, &idx.0, &val.0))
     }
     #[inline(always)]
     fn atomic_fetch_add_i(self, mem: &[AtomicI32], m: Mask16, idx: I32x16, val: I32x16) -> I32x16 {

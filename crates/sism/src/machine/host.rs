@@ -245,10 +245,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
     // baseline target (SSE2) as four 128-bit ones or a scalar loop.
     use sism_simd::BackendKind;
     let (vector, slow) = match backend {
-        BackendKind::Avx512 => (fam.vector_avx512, 1),
-        // Two 256-bit operations a vector: as one AVX-512 operation on cores that split those in
-        // two (Zen 4), up to twice it elsewhere; `sism calibrate` measures it.
-        BackendKind::Avx2 => (fam.vector_avx512, 1),
+        // AVX2 runs a vector as two 256-bit operations: as one AVX-512 operation on cores that split
+        // those in two (Zen 4), up to twice it elsewhere; `sism calibrate` measures it.
+        BackendKind::Avx512 | BackendKind::Avx2 => (fam.vector_avx512, 1),
         BackendKind::PortableAvx2 => (fam.vector_portable * 0.5, 2),
         BackendKind::Portable => (fam.vector_portable, 4),
     };
