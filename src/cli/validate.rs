@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
+use sism::host::calibrate;
 use sism::host::validate::{self, Row};
 use sism::scene::Scene;
 
@@ -98,8 +99,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         scenes.push(scene);
     }
     let out = create_dir(&a.out)?;
+    // The calibration's own measurements of the moment benchmarks, when the machine is a file
+    // `sism calibrate` wrote (a preset has none).
+    let evidence = std::path::Path::new(&a.machine)
+        .is_file()
+        .then(|| std::fs::read_to_string(&a.machine).ok())
+        .flatten()
+        .map(|t| calibrate::evidence_from_toml(&t))
+        .unwrap_or_default();
     let runs = (scenes.len() * algos.len()) as u64;
-    let bar = sism::progress::bar(runs * (1 + threads.len() as u64), "validating", !a.quiet);
+    let bar = sism::progress::bar(runs * (1 + threads.len() as u64) + 2, "validating", !a.quiet);
+    bar.set_message("the host's moment (start)");
+    let moment_start = calibrate::moment(&model);
+    bar.inc(1);
     let mut rows: Vec<Row> = Vec::new();
     for scene in &scenes {
         for (algo, params) in &algos {
@@ -117,15 +129,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             )?);
         }
     }
+    bar.set_message("the host's moment (end)");
+    let moment_end = calibrate::moment(&model);
     bar.finish_and_clear();
     let md = format!(
         "Model `{}` against the host ({} GHz), {}×{} where given, backend {}; predicted / measured host ms \
-         per major phase and per frame (a phase: its steps' work; the frame: the phases the model times).\n\n{}",
+         per major phase and per frame (a phase: its steps' work; the frame: the phases the model times).\n\n{}\n{}",
         model.name,
         model.clock_ghz,
         a.width.map(|w| w.to_string()).unwrap_or_else(|| "scene".into()),
         a.height.map(|h| h.to_string()).unwrap_or_else(|| "scene".into()),
         sism_simd::selected_backend().name(),
+        validate::moment_markdown(&evidence, &moment_start, &moment_end),
         validate::markdown(&rows, a.tolerance)
     );
     write_file(&out.join("validate.csv"), &validate::csv(&rows))?;

@@ -267,6 +267,35 @@ fn median(values: impl Iterator<Item = f64>) -> Option<f64> {
     (!v.is_empty()).then(|| crate::metrics::median(&v))
 }
 
+/// The host's moment as a table: per moment benchmark ([`super::calibrate::MOMENT_BENCHES`]) its
+/// time in the machine file's calibration (`evidence`, when the file states it), at the start and
+/// at the end of this run, ms, with the change against the calibration (else against the start).
+/// A shared host's speed moves with its other tenants: an error the moment explains is not the
+/// model's.
+pub fn moment_markdown(evidence: &[(String, f64)], start: &[(&str, f64)], end: &[(&str, f64)]) -> String {
+    let change = |now: f64, base: Option<f64>| match base {
+        Some(b) if b > 0.0 => format!("{:.2} ({:+.0}%)", now / 1e6, 100.0 * (now / b - 1.0)),
+        _ => format!("{:.2}", now / 1e6),
+    };
+    let mut s = String::from(
+        "The host's moment: microbenchmarks of the calibration re-run at the start and the end of this \
+         run, ms (change against the calibration where the machine file states it). A shared host's \
+         speed moves with its other tenants; an error the moment explains is not the model's.\n\n\
+         | benchmark | calibration | start | end |\n|---|---|---|---|\n",
+    );
+    for (name, t0) in start {
+        let cal = evidence.iter().find(|(n, _)| n == name).map(|(_, ns)| *ns);
+        let t1 = end.iter().find(|(n, _)| n == name).map(|(_, ns)| *ns);
+        s += &format!(
+            "| {name} | {} | {} | {} |\n",
+            cal.map_or("–".to_string(), |c| format!("{:.2}", c / 1e6)),
+            change(*t0, cal),
+            t1.map_or("–".to_string(), |t| change(t, cal.or(Some(*t0)))),
+        );
+    }
+    s
+}
+
 /// `validate.csv`: one row per scene, algorithm, thread count and phase.
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from("scene,algorithm,threads,phase,major,measured_ms,predicted_ms,error\n");
@@ -356,4 +385,20 @@ pub fn markdown(rows: &[Row], tolerance: f64) -> String {
         },
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The moment's changes are against the calibration where the file states it, else the start.
+    #[test]
+    fn moment_changes_against_the_calibration_or_the_start() {
+        let start = [("alu", 1.5e6), ("scalar-mix", 3.0e6)];
+        let end = [("alu", 2.0e6), ("scalar-mix", 1.5e6)];
+        let evidence = vec![("alu".to_string(), 1.0e6)];
+        let md = moment_markdown(&evidence, &start, &end);
+        assert!(md.contains("| alu | 1.00 | 1.50 (+50%) | 2.00 (+100%) |"), "{md}");
+        assert!(md.contains("| scalar-mix | – | 3.00 | 1.50 (-50%) |"), "{md}");
+    }
 }
