@@ -154,6 +154,15 @@ fn validate_tabulates_predicted_against_measured_per_phase() {
     }
     // The last lines: the mean |error| and the share within the tolerance.
     let md = std::fs::read_to_string(out.join("validate.md")).unwrap();
+    // Before the table, the host's moment: each moment benchmark at the start and the end (the
+    // `host` preset states no calibration, so that column is empty).
+    for name in sism::host::calibrate::MOMENT_BENCHES {
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} | – | ")))
+            .unwrap_or_else(|| panic!("no moment row for {name} in\n{md}"));
+        assert_eq!(row.matches('|').count(), 5, "{row}");
+    }
     let last: Vec<&str> = md.trim_end().lines().rev().take(2).collect();
     assert!(last[1].starts_with("mean |error|: "), "{md}");
     assert!(last[0].starts_with("within ±25%: "), "{md}");
