@@ -1759,16 +1759,21 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 }
             }
         };
+    // `solve` with the latency bound lifted (`latency_scale` 0 while solving, then restored): for
+    // the throughput costs whose benchmarks run on chains that bind on some host or backend.
+    let solve_unchained =
+        |m: &mut MachineConfig, x: &Measured, lo: f64, hi: f64, set: &dyn Fn(&mut MachineConfig, f64)| {
+            let latency_scale = std::mem::replace(&mut m.latency_scale, 0.0);
+            solve(m, x, lo, hi, set);
+            m.latency_scale = latency_scale;
+        };
     for _ in 0..4 {
         // The vector cost first, on the arithmetic benchmark with the latency bound lifted: on the
         // portable backend that benchmark is latency-bound on every chain count (its 16 lanes
         // make a round trip through memory per operation), and the issue cost that alone explains
         // it is the most the benchmark allows (on AVX-512 the issue bound holds it anyway).
         for x in measured.iter().filter(|x| x.bench.fits == Fits::Vector) {
-            let mut t = m.clone();
-            t.latency_scale = 0.0;
-            solve(&mut t, x, 0.01, 100.0, &|m, c| m.vector_cycles = c);
-            m.vector_cycles = t.vector_cycles;
+            solve_unchained(&mut m, x, 0.01, 100.0, &|m, c| m.vector_cycles = c);
         }
         // Whether raising the cost `set` sets a little above `c` raises `x`'s prediction on `m`:
         // false when another bound holds the benchmark, which then says nothing about that cost.
@@ -1802,10 +1807,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 // deep), and where the nominal chain then exceeds the host's time the divider's
                 // own cost would fall to the floor and a kernel's independent divides cost nothing.
                 Fits::ScalarDivide => {
-                    let mut t = m.clone();
-                    t.latency_scale = 0.0;
-                    solve(&mut t, x, 0.01, 100.0, &|m, c| m.scalar_div_cycles = c);
-                    m.scalar_div_cycles = t.scalar_div_cycles;
+                    solve_unchained(&mut m, x, 0.01, 100.0, &|m, c| m.scalar_div_cycles = c)
                 }
                 // A scalar operation costs at least what each of the two benchmarks shows: the
                 // integer chains (tight, three a cycle on every host seen) and float geometry as the
