@@ -27,8 +27,10 @@ pub struct LaneArray<T>(pub [T; 16]);
 /// The lowest set lane of `rest`, cleared from it; `None` when none is left. The loop's test is a
 /// counted branch with its outcome (how many lanes a mask holds varies from vector to vector, and
 /// the host mispredicts it); the bit scan is the caller's to count. `while let Some(lane) =
-/// next_lane(s, &mut rest)` walks a mask's lanes in increasing order.
+/// next_lane(s, &mut rest)` walks a mask's lanes in increasing order. The branch is predicted at
+/// the caller's site (`track_caller`): inlined, each loop has its own branch on the host.
 #[inline(always)]
+#[track_caller]
 pub fn next_lane<S: Simd>(s: S, rest: &mut u16) -> Option<usize> {
     if !s.s_branch(*rest != 0) {
         return None;
@@ -88,7 +90,9 @@ pub fn cross<S: Simd>(s: S, a: Vec3, b: Vec3) -> Vec3 {
 }
 
 /// `a.normalize_or_zero()`: `a * (1 / |a|)` when that reciprocal is finite and positive, else zero.
+/// Its branch is predicted at the caller's site, as [`next_lane`]'s.
 #[inline(always)]
+#[track_caller]
 pub fn normalize_or_zero<S: Simd>(s: S, a: Vec3) -> Vec3 {
     let length = s.s_fn(ScalarClass::Div, dot(s, a, a), f32::sqrt);
     let rcp = s.s_div(1.0, length);

@@ -170,6 +170,10 @@ fn float_mix_run<const C: usize>(iters: usize, vector: bool, r: Option<&Recorder
     run_on(r, FloatMixK::<C> { iters, vector })
 }
 
+fn scalar_chain_run<const C: usize>(iters: usize, vector: bool, r: Option<&Recorder>) -> u32 {
+    run_on(r, ScalarK::<C> { iters, vector })
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     /// `iters` rounds of 8 add/mul/fma on `chains` independent dependency chains (1, 2, 4 or 8;
@@ -178,8 +182,11 @@ enum Kind {
         iters: usize,
         chains: usize,
     },
+    /// `iters` rounds of [`ScalarK`]'s integer chains, with (`vector`) or without the `alu`
+    /// benchmark's 8 vector add/mul/fma on its chains.
     ScalarChain {
         iters: usize,
+        vector: bool,
     },
     /// `iters` rounds of 8 scalar float adds and multiplies on 8 independent chains, with
     /// (`vector`) or without 8 vector add/mul/fma on the `alu` benchmark's chains ([`FloatMixK`]).
@@ -326,7 +333,19 @@ pub const BENCHES: &[Bench] = &[
         name: "scalar",
         what: "three independent groups of four coupled integer chains (multiply, add, rotate, xor)",
         fits: Fits::Scalar,
-        kind: Kind::ScalarChain { iters: 1_000_000 },
+        kind: Kind::ScalarChain {
+            iters: 1_000_000,
+            vector: false,
+        },
+    },
+    Bench {
+        name: "alu-scalar",
+        what: "16-lane add/mul/fma on the alu benchmark's chains, interleaved with the scalar benchmark's integer chains",
+        fits: Fits::Check,
+        kind: Kind::ScalarChain {
+            iters: 1_000_000,
+            vector: true,
+        },
     },
     Bench {
         name: "divide",
@@ -896,15 +915,23 @@ impl Kernel for FreshPagesK<'_> {
     }
 }
 
-struct ScalarK {
+struct ScalarK<const CHAINS: usize> {
     iters: usize,
+    vector: bool,
 }
-impl Kernel for ScalarK {
+impl<const CHAINS: usize> Kernel for ScalarK<CHAINS> {
     type Output = u32;
     #[inline(always)]
     fn run<S: Simd>(self, s: S) -> u32 {
         let mut v = black_box([[1u32, 2, 3, 4], [5, 6, 7, 8], [9, 10, 11, 12]]);
+        let k = s.splat_f(black_box(1.000_001));
+        let c = s.splat_f(black_box(1e-7));
+        let mut a = [s.splat_f(1.0); 8];
+        let vector = self.vector;
         for _ in 0..self.iters {
+            if vector {
+                a = alu_round::<S, CHAINS>(s, a, k, c);
+            }
             // Three independent groups of four coupled chains of different operations: nothing
             // for the compiler to vectorise, and enough independent work that the ports, not one
             // chain's latency, bound it (integer chains are not recorded, so a latency-bound loop
@@ -923,7 +950,8 @@ impl Kernel for ScalarK {
             }
             s.scalar_op(ScalarClass::Branch);
         }
-        v.iter().flatten().fold(0, |x, &y| x ^ y)
+        let sum = sum_chains(s, &a[..CHAINS]);
+        v.iter().flatten().fold(sum.to_bits(), |x, &y| x ^ y)
     }
 }
 
@@ -1308,9 +1336,17 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
                 black_box(f(iters, vector, r));
             })
         }
-        Kind::ScalarChain { iters } => native_and_counted(&mut |r| {
-            black_box(run_on(r, ScalarK { iters }));
-        }),
+        Kind::ScalarChain { iters, vector } => {
+            // The vector rounds on the `alu` benchmark's chains, as `alu-scalar-float`'s.
+            let f: fn(usize, bool, Option<&Recorder>) -> u32 = match throughput_chains() {
+                2 => scalar_chain_run::<2>,
+                4 => scalar_chain_run::<4>,
+                _ => scalar_chain_run::<8>,
+            };
+            native_and_counted(&mut |r| {
+                black_box(f(iters, vector, r));
+            })
+        }
         Kind::Divide { iters } => native_and_counted(&mut |r| {
             black_box(run_on(r, DivK { iters }));
         }),
@@ -2003,7 +2039,7 @@ mod tests {
                 iters: 2000,
                 chains: if chains == THROUGHPUT_CHAINS { 8 } else { chains },
             },
-            Kind::ScalarChain { .. } => Kind::ScalarChain { iters: 5000 },
+            Kind::ScalarChain { vector, .. } => Kind::ScalarChain { iters: 5000, vector },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
             Kind::ScalarDivide { .. } => Kind::ScalarDivide { iters: 2000 },
             Kind::Branch { period, .. } => Kind::Branch {

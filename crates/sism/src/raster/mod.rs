@@ -1005,15 +1005,20 @@ fn splat_edge<S: Simd>(s: S, e: &EdgeSetup) -> (S::F32, S::F32, S::F32) {
 }
 
 /// Bits of the 4×4 grid cells (`16 * row + ...` as `4 * row + col`) whose columns are in
-/// `c0..=c1` and rows in `r0..=r1` (all in 0..4).
+/// `c0..=c1` and rows in `r0..=r1` (all in 0..4), without a branch: one row's bits times a bit at
+/// the start of each chosen row (`row < 16`, so the nibbles do not carry). A loop over the rows
+/// would end on a data-dependent trip count (1 to 4) that the host mispredicts; these nine counted
+/// integer operations are what the host executes instead.
 #[inline(always)]
-fn grid_mask(c0: u32, c1: u32, r0: u32, r1: u32) -> Mask16 {
-    let row = ((1u32 << (c1 + 1)) - (1u32 << c0)) as u16;
-    let mut m = 0u16;
-    for r in r0..=r1 {
-        m |= row << (4 * r);
+fn grid_mask<S: Simd>(s: S, c0: u32, c1: u32, r0: u32, r1: u32) -> Mask16 {
+    for _ in 0..9 {
+        s.scalar_op(ScalarClass::Alu);
     }
-    Mask16(m)
+    // Bits c0..=c1 of one row: two shifts and a subtract.
+    let row = (2u32 << c1) - (1u32 << c0);
+    // A bit at 4r for every r in r0..=r1: two shifts (the 4r as shifts), a subtract and an and.
+    let starts = (0x1111u32 << (4 * r0)) & ((16u32 << (4 * r1)) - 1);
+    Mask16((row * starts) as u16)
 }
 
 impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
@@ -1050,7 +1055,11 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                 splat_edge(s, &edges[2]),
             ];
             // Level 1: the 16 sub-tiles; reject where an edge is negative at every pixel centre.
-            let mut subs = grid_mask(x0 / SUB, x1 / SUB, y0 / SUB, y1 / SUB);
+            // The box's sub-tiles: four shifts.
+            for _ in 0..4 {
+                s.scalar_op(ScalarClass::Alu);
+            }
+            let mut subs = grid_mask(s, x0 / SUB, x1 / SUB, y0 / SUB, y1 / SUB);
             let reach = |e: &EdgeSetup, k: f32| {
                 let abs = |x: f32| s.s_fn(ScalarClass::Alu, x, f32::abs);
                 s.s_add(s.s_mul(k, s.s_add(abs(e.a), abs(e.b))), e.eps)
@@ -1071,7 +1080,7 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                 let bx1 = s.s_sub(s.s_min(x1, sx + SUB - 1), sx) / 4;
                 let by0 = s.s_sub(s.s_max(y0, sy), sy) / 4;
                 let by1 = s.s_sub(s.s_min(y1, sy + SUB - 1), sy) / 4;
-                let mut blocks = grid_mask(bx0, bx1, by0, by1);
+                let mut blocks = grid_mask(s, bx0, bx1, by0, by1);
                 let mut full = blocks;
                 let cx = s.add_f(blk_x, s.splat_f(sx as f32));
                 let cy = s.add_f(blk_y, s.splat_f(sy as f32));
@@ -1098,7 +1107,8 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
                         for (e, &(a, b, c)) in edges.iter().zip(&ev) {
                             let v = s.fmadd(a, dx, s.fmadd(b, dy, c));
                             let zero = s.splat_f(0.0);
-                            let hit = if e.inclusive {
+                            // The host branches on the edge's rule here (counted, predicted).
+                            let hit = if s.s_branch(e.inclusive) {
                                 s.cmp_ge_f(v, zero)
                             } else {
                                 s.cmp_gt_f(v, zero)
@@ -1180,5 +1190,32 @@ impl TileTriangles {
         s.s_push(&mut self.original, t.original as i32);
         s.s_push(&mut self.inv_z_dx, inv_z_dx);
         s.s_push(&mut self.inv_z_dy, inv_z_dy);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The branch-free grid mask against its definition (a loop over the rows), for every box
+    /// of the 4×4 grid.
+    #[test]
+    fn grid_mask_matches_the_cells_of_every_box() {
+        let s = sism_simd::Portable;
+        for (c0, c1, r0, r1) in (0..4).flat_map(|c0| {
+            (c0..4).flat_map(move |c1| (0..4).flat_map(move |r0| (r0..4).map(move |r1| (c0, c1, r0, r1))))
+        }) {
+            let mut want = 0u16;
+            for r in r0..=r1 {
+                for c in c0..=c1 {
+                    want |= 1 << (4 * r + c);
+                }
+            }
+            assert_eq!(
+                grid_mask(s, c0, c1, r0, r1).0,
+                want,
+                "columns {c0}..={c1}, rows {r0}..={r1}"
+            );
+        }
     }
 }
