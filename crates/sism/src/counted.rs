@@ -105,6 +105,48 @@ pub fn normalize_or_zero<S: Simd>(s: S, a: Vec3) -> Vec3 {
     }
 }
 
+/// `if a > b { a } else { b }`, glam's `max` of one component, as one instruction: x86's `maxss`
+/// is exactly this select (equal zeros and NaNs give `b`). Written as the select, the compiler may
+/// emit a data-dependent branch, which the host mispredicts and the model counts as an operation.
+#[inline(always)]
+fn select_max(a: f32, b: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unused_unsafe)]
+    // SAFETY: SSE is part of x86_64's baseline.
+    unsafe {
+        use core::arch::x86_64::{_mm_cvtss_f32, _mm_max_ss, _mm_set_ss};
+        _mm_cvtss_f32(_mm_max_ss(_mm_set_ss(a), _mm_set_ss(b)))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        if a > b {
+            a
+        } else {
+            b
+        }
+    }
+}
+
+/// `if a < b { a } else { b }`, glam's `min` of one component: `minss`, as [`select_max`].
+#[inline(always)]
+fn select_min(a: f32, b: f32) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unused_unsafe)]
+    // SAFETY: SSE is part of x86_64's baseline.
+    unsafe {
+        use core::arch::x86_64::{_mm_cvtss_f32, _mm_min_ss, _mm_set_ss};
+        _mm_cvtss_f32(_mm_min_ss(_mm_set_ss(a), _mm_set_ss(b)))
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        if a < b {
+            a
+        } else {
+            b
+        }
+    }
+}
+
 /// Counted 2-vector operations, glam's `Vec2` arithmetic in glam's order.
 pub mod v2 {
     use glam::Vec2;
@@ -134,7 +176,7 @@ pub mod v2 {
     pub fn min<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
         s.scalar_op(ScalarClass::Alu);
         s.scalar_op(ScalarClass::Alu);
-        a.min(b)
+        Vec2::new(super::select_min(a.x, b.x), super::select_min(a.y, b.y))
     }
 
     /// `a.max(b)` (glam's own): two operations.
@@ -142,7 +184,7 @@ pub mod v2 {
     pub fn max<S: Simd>(s: S, a: Vec2, b: Vec2) -> Vec2 {
         s.scalar_op(ScalarClass::Alu);
         s.scalar_op(ScalarClass::Alu);
-        a.max(b)
+        Vec2::new(super::select_max(a.x, b.x), super::select_max(a.y, b.y))
     }
 
     /// `a.dot(b)`: `(a.x * b.x) + (a.y * b.y)`.
@@ -195,6 +237,31 @@ mod tests {
                 assert!(same2(v2::max(s, a2, b2), a2.max(b2)));
                 assert_eq!(v2::dot(s, a2, b2).to_bits(), a2.dot(b2).to_bits());
                 assert_eq!(v2::length(s, a2).to_bits(), a2.length().to_bits());
+            }
+        }
+    }
+
+    /// The branch-free component min and max choose as glam's selects do, signed zeros, NaNs and
+    /// infinities included.
+    #[test]
+    fn the_component_selects_are_glams() {
+        let xs = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-45,
+        ];
+        for &a in &xs {
+            for &b in &xs {
+                let glam_max = if a > b { a } else { b };
+                let glam_min = if a < b { a } else { b };
+                assert_eq!(select_max(a, b).to_bits(), glam_max.to_bits(), "max({a}, {b})");
+                assert_eq!(select_min(a, b).to_bits(), glam_min.to_bits(), "min({a}, {b})");
             }
         }
     }

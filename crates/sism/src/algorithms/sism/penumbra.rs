@@ -149,6 +149,8 @@ fn quad_geometry<S: Simd>(s: S, g: &FaceGrid, e: &EdgeRecord) -> Option<QuadGeom
 /// Distance from segment `a b` to the axis-aligned rectangle `[lo, hi]` (0 when they touch).
 /// Its operations are counted by `s` (a native context counts nothing).
 #[inline(always)]
+// The clamp of `t` is a max and a min on purpose (see there).
+#[allow(clippy::manual_clamp)]
 pub fn segment_rect_distance<S: Simd>(s: S, a: Vec2, b: Vec2, lo: Vec2, hi: Vec2) -> f32 {
     let point_rect = |p: Vec2| {
         let outside = v2::max(s, v2::max(s, v2::sub(s, lo, p), v2::sub(s, p, hi)), Vec2::ZERO);
@@ -160,7 +162,10 @@ pub fn segment_rect_distance<S: Simd>(s: S, a: Vec2, b: Vec2, lo: Vec2, hi: Vec2
         let t = if s.s_lt(0.0, len2) {
             let t = s.s_div(v2::dot(s, v2::sub(s, p, a), d), len2);
             s.scalar_op(ScalarClass::Alu); // the clamp's two bounds
-            s.s_fn(ScalarClass::Alu, t, |t: f32| t.clamp(0.0, 1.0))
+                                           // A max and a min, not `f32::clamp`: the compiler turns the clamp into a
+                                           // data-dependent branch per lane, which the host mispredicts and the model does not
+                                           // count; the same value for every t but NaN.
+            s.s_fn(ScalarClass::Alu, t, |t: f32| t.max(0.0).min(1.0))
         } else {
             0.0
         };

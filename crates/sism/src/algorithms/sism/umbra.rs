@@ -330,7 +330,8 @@ pub fn covered<S: Simd>(s: S, t: &TriangleInBin, m: Mask16, x: S::F32, y: S::F32
     let nq = s.mul_f(nq, s.splat_f(1.0 - SELF_SHADOW_EPS));
     let kv = s.splat_f(t.k);
     // k and n·q of the same sign, |k| < |n·q| (1 - eps).
-    let between = if t.k > 0.0 {
+    // A branch on the host (counted, predicted): its outcome holds for a triangle's vectors.
+    let between = if s.s_branch(t.k > 0.0) {
         s.cmp_lt_f(kv, nq)
     } else {
         s.cmp_gt_f(kv, nq)
