@@ -1014,9 +1014,10 @@ fn grid_mask<S: Simd>(s: S, c0: u32, c1: u32, r0: u32, r1: u32) -> Mask16 {
     for _ in 0..9 {
         s.scalar_op(ScalarClass::Alu);
     }
-    // Bits c0..=c1 of one row: two shifts and a subtract.
+    // Counted: bits c0..=c1 of one row (two shifts, a subtract); a bit at 4r for every r in
+    // r0..=r1 (two shifts, their amounts 4r taken as free address arithmetic, a subtract, an and);
+    // the product (a multiply); its truncation to 16 bits (a move).
     let row = (2u32 << c1) - (1u32 << c0);
-    // A bit at 4r for every r in r0..=r1: two shifts (the 4r as shifts), a subtract and an and.
     let starts = (0x1111u32 << (4 * r0)) & ((16u32 << (4 * r1)) - 1);
     Mask16((row * starts) as u16)
 }

@@ -161,10 +161,10 @@ pub fn segment_rect_distance<S: Simd>(s: S, a: Vec2, b: Vec2, lo: Vec2, hi: Vec2
     let point_segment = |p: Vec2| {
         let t = if s.s_lt(0.0, len2) {
             let t = s.s_div(v2::dot(s, v2::sub(s, p, a), d), len2);
-            s.scalar_op(ScalarClass::Alu); // the clamp's two bounds
-                                           // A max and a min, not `f32::clamp`: the compiler turns the clamp into a
-                                           // data-dependent branch per lane, which the host mispredicts and the model does not
-                                           // count; the same value for every t but NaN.
+            // The clamp's two bounds, as a max and a min, not `f32::clamp`: the compiler turns the
+            // clamp into a data-dependent branch per lane, which the host mispredicts and the model
+            // does not count; the same value for every t but NaN.
+            s.scalar_op(ScalarClass::Alu);
             s.s_fn(ScalarClass::Alu, t, |t: f32| t.max(0.0).min(1.0))
         } else {
             0.0
