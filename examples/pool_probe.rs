@@ -1,5 +1,6 @@
 //! Times a step on a fresh rayon pool after (or without) a counted frame, as `validate` runs it:
-//! `pool_probe SCENE ALGO STEP THREADS COUNTED(0|1) [FRAMES]` (THREADS 0: the global pool; 6 frames).
+//! `pool_probe SCENE ALGO STEP THREADS COUNTED(0|1) [FRAMES]` (THREADS 0: the global pool; 6 frames),
+//! at 1600×1200 unless `PROBE_W` and `PROBE_H` say otherwise.
 use sism::algorithms::PreparedScene;
 use sism::exec::Exec;
 use sism::render::{render_prepared, RenderOptions};
@@ -14,8 +15,8 @@ fn main() {
     unsafe { libmimalloc_sys::mi_option_set(15, -1) };
     let a: Vec<String> = std::env::args().collect();
     let mut scene = sism::scene::Scene::load(std::path::Path::new(&a[1])).unwrap();
-    scene.camera.width = 1600;
-    scene.camera.height = 1200;
+    scene.camera.width = std::env::var("PROBE_W").map_or(1600, |v| v.parse().unwrap());
+    scene.camera.height = std::env::var("PROBE_H").map_or(1200, |v| v.parse().unwrap());
     let algo = sism::algorithms::find(&a[2]).unwrap();
     let params = algo.params(&[]).unwrap();
     let threads: usize = a[4].parse().unwrap();

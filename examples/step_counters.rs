@@ -1,10 +1,14 @@
 //! Per step of a saved records file, the summed counters of its tasks, one line per step:
-//! `cargo run --release --example step_counters -- out/records.bin`.
+//! `cargo run --release --example step_counters -- out/records.bin [MACHINE]`. With a machine file,
+//! then one line per step and task kind: its tasks' issue cycles on that machine
+//! (`timing::compute_cost`, no memory), to split a step's prediction between its kinds of task.
 use sism::machine::records::load_records;
 use sism_simd::Counters;
 
 fn main() {
-    let path = std::env::args().nth(1).expect("usage: step_counters RECORDS");
+    let path = std::env::args()
+        .nth(1)
+        .expect("usage: step_counters RECORDS [MACHINE]");
     let recs = load_records(std::path::Path::new(&path)).expect("records");
     println!("step,{}", Counters::FIELDS.join(","));
     for p in &recs.0 {
@@ -16,5 +20,24 @@ fn main() {
         }
         let v: Vec<String> = sum.iter().map(|x| x.to_string()).collect();
         println!("{},{}", p.phase, v.join(","));
+    }
+    let Some(machine) = std::env::args().nth(2) else {
+        return;
+    };
+    let m = sism::machine::config::MachineConfig::load(std::path::Path::new(&machine), None)
+        .expect("machine file");
+    println!("step,kind,tasks,issue_cycles,ms_at_clock");
+    for p in &recs.0 {
+        let mut by_kind = std::collections::BTreeMap::<u32, (u64, u64)>::new();
+        for t in &p.tasks {
+            let (issue, atomics) = sism::machine::timing::compute_cost(&t.counters, &m);
+            let e = by_kind.entry(t.kind).or_default();
+            e.0 += 1;
+            e.1 += issue + atomics;
+        }
+        for (kind, (n, cycles)) in by_kind {
+            let ms = cycles as f64 / (m.clock_ghz * 1e6);
+            println!("{},{kind:#x},{n},{cycles},{ms:.3}", p.phase);
+        }
     }
 }

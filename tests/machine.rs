@@ -171,6 +171,33 @@ fn memory_latency_hand_case() {
 }
 
 #[test]
+fn dirty_lines_written_back_cost_writeback_cycles_each() {
+    // One core writing 8192 distinct lines (twice its L1 and L2 together): the lines beyond what
+    // the caches hold are evicted dirty, and each write-back costs `writeback_cycles`.
+    let lines: Vec<(u64, bool)> = (0..8192u64).map(|k| (10_000 + k, true)).collect();
+    let t = task(valu(10), &lines);
+    let run = |writeback_cycles: f64| {
+        let m = MachineConfig {
+            writeback_cycles,
+            ..machine(1, 1)
+        };
+        let mut mem = MemoryCounts::default();
+        let cost = Machine::new(&m).run_task(0, &t, &mut mem);
+        (cost, mem.writebacks)
+    };
+    let (free, writebacks) = run(0.0);
+    let (dear, again) = run(3.0);
+    assert_eq!(writebacks, again, "the cost does not change the caches");
+    assert!(
+        (2048..8192).contains(&writebacks),
+        "{writebacks} write-backs of 8192 lines written"
+    );
+    assert_eq!(dear.stall, free.stall + 3 * writebacks);
+    assert_eq!(dear.exposed, free.exposed + 3 * writebacks);
+    assert_eq!(dear.issue, free.issue);
+}
+
+#[test]
 fn threads_hide_latency() {
     let t = task(valu(20), &[(7, false)]);
     let one = simulate(&[phase("p", vec![t.clone()])], &machine(1, 1));

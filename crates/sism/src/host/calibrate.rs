@@ -91,6 +91,9 @@ pub enum Fits {
     StreamDram,
     /// `stream_ramp_share`, by loads of short runs of consecutive lines at random starts in DRAM.
     StreamRamp,
+    /// `writeback_cycles`, by streaming stores over an array in DRAM (after `stream_dram_cycles`:
+    /// what writing a line back adds to streaming it in).
+    Writeback,
     /// `mispredict_cycles`, by a branch on random data (half its outcomes mispredicted).
     Mispredict,
     /// `scalar_float_cycles`, by vector chains interleaved with scalar float chains (after
@@ -584,7 +587,7 @@ pub const BENCHES: &[Bench] = &[
     Bench {
         name: "store-dram",
         what: "streaming stores over an array in DRAM",
-        fits: Fits::Check,
+        fits: Fits::Writeback,
         kind: Kind::Stream {
             level: Level::Dram,
             store: true,
@@ -1894,6 +1897,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::StreamL3 => {}
                 Fits::StreamDram => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.stream_dram_cycles = c),
                 Fits::StreamRamp => solve(&mut m, x, 0.0, 1.0, &|m, c| m.stream_ramp_share = c),
+                Fits::Writeback => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.writeback_cycles = c),
                 Fits::Mispredict => solve(&mut m, x, 0.0, 1000.0, &|m, c| m.mispredict_cycles = c),
                 // A scalar float is one instruction on one of the vector unit's pipes, as a scalar
                 // operation is on one of the integer ALUs: never dearer there than a scalar
@@ -1936,6 +1940,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.stream_l3_cycles = (m.stream_l3_cycles * 1000.0).round() / 1000.0;
     m.stream_dram_cycles = (m.stream_dram_cycles * 1000.0).round() / 1000.0;
     m.stream_ramp_share = (m.stream_ramp_share * 1000.0).round() / 1000.0;
+    m.writeback_cycles = (m.writeback_cycles * 1000.0).round() / 1000.0;
     m.mispredict_cycles = (m.mispredict_cycles * 100.0).round() / 100.0;
     m.scalar_float_cycles = (m.scalar_float_cycles * 1000.0).round() / 1000.0;
     m.mask_move_cycles = (m.mask_move_cycles * 1000.0).round() / 1000.0;
@@ -2083,7 +2088,12 @@ mod tests {
             .filter(|b| {
                 !matches!(
                     b.fits,
-                    Fits::Check | Fits::Dram | Fits::StreamDram | Fits::StreamRamp | Fits::DramBandwidth
+                    Fits::Check
+                        | Fits::Dram
+                        | Fits::StreamDram
+                        | Fits::StreamRamp
+                        | Fits::Writeback
+                        | Fits::DramBandwidth
                 )
             })
             .map(|b| {

@@ -307,6 +307,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         stream_dram_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
         // A young stream's misses (its first 4 KiB): starting point, fitted by `sism calibrate`.
         stream_ramp_share: 0.6,
+        // A dirty line written back: starting point (a line over one core's share of DRAM's
+        // bandwidth, as a streamed load), fitted by `sism calibrate` on streaming stores.
+        writeback_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
         // A mispredicted branch: starting point (Zen 4's typical penalty, AMD's optimisation
         // guide), fitted by `sism calibrate` on a branch on random data.
         mispredict_cycles: 13.0,

@@ -59,6 +59,10 @@
 //!   is taken to stream at once. Random misses and shared-cache hits keep their latencies (on the
 //!   project's host, random lines from DRAM and the shared cache take as long on both threads at
 //!   once as on one; streams from DRAM take from as long to 1.8 times as long, with the moment).
+//! * **Write-backs**: each dirty line the last level (L2, or the shared cache) evicts while a task
+//!   runs costs that task `writeback_cycles` (0 on Larrabee), a throughput like a streamed line's:
+//!   on the host a store stream takes about three times a load stream of the same lines (read for
+//!   ownership, then written back), which the misses alone do not show.
 //! * **DRAM bandwidth**: a phase cannot finish before its DRAM traffic (L2 fills and write-backs)
 //!   has crossed at `dram_bandwidth_gbs`; any excess over the busiest core is memory stall.
 //!
@@ -487,9 +491,11 @@ impl<'a> Machine<'a> {
                 + level(dram_misses, 2, self.dram_miss))
             .ceil() as u64,
         );
+        // A dirty line the last level evicts is written back: a throughput, as a streamed line.
         let streaming = (streamed[0] as f64 * m.stream_l2_cycles
             + streamed[1] as f64 * m.stream_l3_cycles
-            + streamed[2] as f64 * stream_dram)
+            + streamed[2] as f64 * stream_dram
+            + tally.writebacks as f64 * m.writeback_cycles)
             .ceil() as u64;
         let stall = latency.saturating_add(streaming);
         // Misses a thread overlaps (out-of-order cores) divide its latency before other hardware
