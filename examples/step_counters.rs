@@ -36,8 +36,7 @@ fn main() {
             e.1 += issue + atomics;
         }
         for (kind, (n, cycles)) in by_kind {
-            let ms = cycles as f64 / (m.clock_ghz * 1e6);
-            println!("{},{kind:#x},{n},{cycles},{ms:.3}", p.phase);
+            println!("{},{kind:#x},{n},{cycles},{:.3}", p.phase, m.ms(cycles));
         }
     }
 }

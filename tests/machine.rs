@@ -172,8 +172,8 @@ fn memory_latency_hand_case() {
 
 #[test]
 fn dirty_lines_written_back_cost_writeback_cycles_each() {
-    // One core writing 8192 distinct lines (twice its L1 and L2 together): the lines beyond what
-    // the caches hold are evicted dirty, and each write-back costs `writeback_cycles`.
+    // One core writing 8192 distinct lines (512 KiB, beyond its 32 KiB L1 and 256 KiB L2): the
+    // lines beyond what the caches hold are evicted dirty; each write-back costs `writeback_cycles`.
     let lines: Vec<(u64, bool)> = (0..8192u64).map(|k| (10_000 + k, true)).collect();
     let t = task(valu(10), &lines);
     let run = |writeback_cycles: f64| {

@@ -251,6 +251,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         BackendKind::PortableAvx2 => (fam.vector_portable * 0.5, 2),
         BackendKind::Portable => (fam.vector_portable, 4),
     };
+    // A line over one core's share of DRAM's bandwidth, cycles: where streamed loads and
+    // write-backs start before `sism calibrate` fits each.
+    let dram_line_cycles = 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz;
     MachineConfig {
         name: "host".into(),
         // SMT siblings are one modelled core with that many threads.
@@ -304,12 +307,12 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         prefetcher: true,
         stream_l2_cycles: 1.0,
         stream_l3_cycles: 2.0,
-        stream_dram_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
+        stream_dram_cycles: dram_line_cycles,
         // A young stream's misses (its first 4 KiB): starting point, fitted by `sism calibrate`.
         stream_ramp_share: 0.6,
-        // A dirty line written back: starting point (a line over one core's share of DRAM's
-        // bandwidth, as a streamed load), fitted by `sism calibrate` on streaming stores.
-        writeback_cycles: 64.0 / fam.dram_bandwidth_gbs * facts.clock_ghz,
+        // A dirty line written back: starting point (as a streamed load), fitted by `sism calibrate`
+        // on streaming stores.
+        writeback_cycles: dram_line_cycles,
         // A mispredicted branch: starting point (Zen 4's typical penalty, AMD's optimisation
         // guide), fitted by `sism calibrate` on a branch on random data.
         mispredict_cycles: 13.0,
