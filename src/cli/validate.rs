@@ -24,6 +24,16 @@ pub struct Args {
     /// The host's model: a machine file from `sism calibrate`, or the `host` preset (uncalibrated).
     #[arg(long, default_value = "host")]
     machine: String,
+    /// Calibrate the host (as `sism calibrate`, about a minute) right before each scene and predict
+    /// that scene with it, instead of one `--machine` for all: a shared host's speed moves with
+    /// its other tenants over minutes, so the model and the frames are measured close together.
+    /// Each fit is written to the output folder as `calibration-K-SCENE.toml`.
+    #[arg(long, conflicts_with = "machine")]
+    calibrate_per_scene: bool,
+    /// With `--calibrate-per-scene`: passes over the benchmark list per calibration (1..=9; see
+    /// `sism calibrate --rounds`).
+    #[arg(long, default_value_t = calibrate::DEFAULT_ROUNDS, requires = "calibrate_per_scene")]
+    calibration_rounds: usize,
     /// Algorithms, comma-separated (ones that run on the simd kernels).
     #[arg(long, default_value = "sism,sism-sampled")]
     algos: String,
@@ -51,6 +61,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         (1..=100).contains(&a.frames),
         "--frames {}: must be 1..=100",
         a.frames
+    );
+    anyhow::ensure!(
+        (1..=9).contains(&a.calibration_rounds),
+        "--calibration-rounds {}: must be 1..=9",
+        a.calibration_rounds
     );
     anyhow::ensure!(
         a.tolerance.is_finite() && a.tolerance > 0.0 && a.tolerance < 10.0,
@@ -101,19 +116,57 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let out = create_dir(&a.out)?;
     // The calibration's own measurements of the moment benchmarks, when the machine is a file
     // `sism calibrate` wrote (a preset has none).
-    let evidence = std::path::Path::new(&a.machine)
+    let mut evidence = std::path::Path::new(&a.machine)
         .is_file()
         .then(|| std::fs::read_to_string(&a.machine).ok())
         .flatten()
         .map(|t| calibrate::evidence_from_toml(&t))
         .unwrap_or_default();
     let runs = (scenes.len() * algos.len()) as u64;
-    let bar = sism::progress::bar(runs * (1 + threads.len() as u64) + 2, "validating", !a.quiet);
-    bar.set_message("the host's moment (start)");
-    let moment_start = calibrate::moment(&model);
-    bar.inc(1);
+    let calibrations = if a.calibrate_per_scene {
+        scenes.len() as u64 * ((calibrate::BENCHES.len() * a.calibration_rounds) as u64 + 1)
+    } else {
+        0
+    };
+    let bar = sism::progress::bar(
+        runs * (1 + threads.len() as u64) + 2 + calibrations,
+        "validating",
+        !a.quiet,
+    );
+    let mut model = model;
+    let mut moment_start = None;
     let mut rows: Vec<Row> = Vec::new();
-    for scene in &scenes {
+    for (k, scene) in scenes.iter().enumerate() {
+        if a.calibrate_per_scene {
+            let fitted = calibrate::calibrate_host(a.calibration_rounds, &|what| {
+                bar.set_message(format!("calibrating: {what}"));
+                bar.inc(1);
+            });
+            fitted
+                .config
+                .validate()
+                .map_err(|(key, e)| anyhow::anyhow!("the fitted model is out of range: `{key}` {e}"))?;
+            let facts = sism::host::facts();
+            let toml = fitted.to_toml(facts, facts.backend.name());
+            let stem = scene
+                .source
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "scene".into());
+            let file = out.join(format!("calibration-{}-{stem}.toml", k + 1));
+            write_file(&file, &toml)?;
+            if k == 0 {
+                evidence = calibrate::evidence_from_toml(&toml);
+            }
+            // The model as the file reads back, so that `--machine FILE` predicts what this did.
+            model = super::resolve_machine(&file.to_string_lossy())
+                .with_context(|| format!("reading back {}", file.display()))?;
+        }
+        if moment_start.is_none() {
+            bar.set_message("the host's moment (start)");
+            moment_start = Some(calibrate::moment(&model));
+            bar.inc(1);
+        }
         for (algo, params) in &algos {
             rows.extend(validate::validate(
                 scene,
@@ -129,13 +182,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             )?);
         }
     }
+    let moment_start = moment_start.unwrap_or_default();
     bar.set_message("the host's moment (end)");
     let moment_end = calibrate::moment(&model);
     bar.finish_and_clear();
     let md = format!(
-        "Model `{}` against the host ({} GHz), {}×{} where given, backend {}; predicted / measured host ms \
+        "Model `{}`{} against the host ({} GHz), {}×{} where given, backend {}; predicted / measured host ms \
          per major phase and per frame (a phase: its steps' work; the frame: the phases the model times).\n\n{}\n{}",
         model.name,
+        if a.calibrate_per_scene {
+            ", calibrated right before each scene (`calibration-K-SCENE.toml`)"
+        } else {
+            ""
+        },
         model.clock_ghz,
         a.width.map(|w| w.to_string()).unwrap_or_else(|| "scene".into()),
         a.height.map(|h| h.to_string()).unwrap_or_else(|| "scene".into()),

@@ -15,9 +15,35 @@ fn repo() -> &'static Path {
 fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("host.toml");
-    let run = sism(repo(), &["calibrate", "--out", out.to_str().unwrap(), "--quiet"]);
+    // Two passes over the benchmark list (the default is three): each time a median of passes.
+    let run = sism(
+        repo(),
+        &[
+            "calibrate",
+            "--out",
+            out.to_str().unwrap(),
+            "--rounds",
+            "2",
+            "--quiet",
+        ],
+    );
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("the median of 2 pass(es)"), "{text}");
+    for rounds in ["0", "10", "many"] {
+        let bad = sism(
+            repo(),
+            &[
+                "calibrate",
+                "--out",
+                out.to_str().unwrap(),
+                "--rounds",
+                rounds,
+                "--quiet",
+            ],
+        );
+        assert_clean_failure(&bad, &["--rounds"]);
+    }
     // The evidence is in the file: every fitted benchmark's measured time, as comments.
     for bench in ["alu", "copy-l1", "gather-l1-16", "stream-dram", "tasks-1024"] {
         assert!(text.contains(bench), "no `{bench}` in the machine file:\n{text}");
@@ -200,6 +226,53 @@ fn validate_rejects_bad_input() {
         &["bad.toml", "cores"],
     );
     assert_clean_failure(&with(&["--machine", "/no/such/machine.toml"]), &["machine"]);
+    // A per-scene calibration fits the host preset itself: a machine file beside it is a mistake.
+    assert_clean_failure(
+        &with(&["--calibrate-per-scene", "--machine", "host"]),
+        &["--calibrate-per-scene", "--machine"],
+    );
+    // Rounds of a calibration that is not run.
+    assert_clean_failure(&with(&["--calibration-rounds", "2"]), &["--calibrate-per-scene"]);
+    assert_clean_failure(
+        &with(&["--calibrate-per-scene", "--calibration-rounds", "0"]),
+        &["--calibration-rounds"],
+    );
+}
+
+/// `--calibrate-per-scene` calibrates before the scene, writes the fit beside the table, and
+/// predicts the scene with it: validating again with that file as `--machine` gives the same
+/// predictions (the records and the replay are deterministic; only the host's times move).
+#[test]
+fn validate_calibrates_per_scene_and_predicts_with_that_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let common = ["--algos", "pcss", "--threads", "1"];
+    let per_scene = dir.path().join("per-scene");
+    let mut args = common.to_vec();
+    args.extend_from_slice(&["--calibrate-per-scene", "--calibration-rounds", "1"]);
+    let first = validate_plate(&per_scene, ("64", "48"), &args);
+    let fit = per_scene.join("calibration-1-plate.toml");
+    let text = std::fs::read_to_string(&fit).unwrap();
+    assert!(text.contains("stream-dram"), "no benchmark evidence in\n{text}");
+    let md = std::fs::read_to_string(per_scene.join("validate.md")).unwrap();
+    assert!(md.contains("calibrated right before each scene"), "{md}");
+    let mut args = common.to_vec();
+    args.extend_from_slice(&["--machine", fit.to_str().unwrap()]);
+    let again = validate_plate(&dir.path().join("again"), ("64", "48"), &args);
+    let predictions = |csv: &str| -> Vec<(String, String)> {
+        csv.lines()
+            .skip(1)
+            .map(|l| {
+                let r: Vec<&str> = l.split(',').collect();
+                (r[3].to_string(), r[6].to_string())
+            })
+            .collect()
+    };
+    let (a, b) = (predictions(&first), predictions(&again));
+    assert!(a.iter().filter(|(_, p)| !p.is_empty()).count() >= 4, "{first}");
+    assert_eq!(
+        a, b,
+        "per-scene fit:\n{first}\nthe same fit as --machine:\n{again}"
+    );
 }
 
 /// A step that runs once per depth map (light-samples: one map per light point) is one row, its

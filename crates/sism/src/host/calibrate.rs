@@ -661,6 +661,28 @@ pub const BENCHES: &[Bench] = &[
         },
     },
     Bench {
+        name: "store-runs-dram-4",
+        what: "stores of runs of 4 consecutive whole lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 4,
+            store: true,
+        },
+    },
+    Bench {
+        name: "store-runs-dram-16",
+        what: "stores of runs of 16 consecutive whole lines at random starts in DRAM",
+        fits: Fits::Check,
+        kind: Kind::Random {
+            level: Level::Dram,
+            count: 1 << 21,
+            run: 16,
+            store: true,
+        },
+    },
+    Bench {
         name: "runs-l3-4",
         what: "loads of runs of 4 consecutive lines at random starts in the shared cache",
         fits: Fits::Check,
@@ -1758,6 +1780,63 @@ pub struct Calibration {
     /// The shared cache's measured capacity, when the caller probed it ([`super::shared_cache`]):
     /// stated in the machine file's header.
     pub shared_cache: Option<super::shared_cache::SharedCacheProbe>,
+    /// Passes over the benchmark list whose median host times were fitted ([`calibrate_host`];
+    /// 1 for a plain [`fit`]): stated in the machine file's header.
+    pub rounds: usize,
+}
+
+/// Rounds of the benchmark list [`calibrate_host`] runs by default: each benchmark's host time is
+/// the median of its rounds' medians, taken tens of seconds apart.
+pub const DEFAULT_ROUNDS: usize = 3;
+
+/// The whole calibration of this host, as `sism calibrate` runs it: the host preset
+/// ([`MachineConfig::host`]), the shared cache's usable capacity probed (the model's `l3_kb`, and
+/// the size of the shared-cache benchmarks), every benchmark of [`BENCHES`] measured in `rounds`
+/// (1..=9) passes over the whole list, then the fit. The first pass also counts each benchmark;
+/// a benchmark's host time is the median of its passes' medians. Why passes rather than more
+/// repeats: a shared host's speed moves over seconds with its other tenants, and [`REPEATS`]
+/// back-to-back runs all fall in one such moment, so one slow moment made one cost dear (on the
+/// project's Intel Xeon VM, consecutive calibrations fitted `load_store_cycles` from 0.36 to 0.97
+/// and `writeback_cycles` from 3.1 to 12.9). `progress(what)` is called before the probe and before
+/// each benchmark of each pass. About a minute a pass; `sism validate --calibrate-per-scene` runs
+/// it before each scene, so the model and the frames it predicts are measured minutes apart.
+pub fn calibrate_host(rounds: usize, progress: &dyn Fn(&str)) -> Calibration {
+    let rounds = rounds.clamp(1, 9);
+    let facts = super::facts();
+    let mut start = MachineConfig::host(facts);
+    progress("the shared cache's usable capacity");
+    let shared = super::shared_cache::probe(start.l2_kb, start.l3_kb);
+    if let Some(kb) = shared.as_ref().and_then(|p| p.effective_kb) {
+        // A power of two of at least twice the L2: some associativity up to the reported one keeps
+        // the sets a power of two.
+        start.l3_ways = crate::machine::host::valid_ways(kb, start.l3_ways).unwrap_or(1);
+        start.l3_kb = kb;
+    }
+    let mut measured: Vec<Measured> = Vec::with_capacity(BENCHES.len());
+    let mut times: Vec<Vec<f64>> = vec![Vec::with_capacity(rounds); BENCHES.len()];
+    for round in 0..rounds {
+        for (k, b) in BENCHES.iter().enumerate() {
+            if rounds > 1 {
+                progress(&format!("{} (pass {} of {rounds})", b.name, round + 1));
+            } else {
+                progress(b.name);
+            }
+            // Counted once: the records are the same in every pass.
+            let x = measure_with(b, &start, round == 0);
+            times[k].push(x.host_ns);
+            if round == 0 {
+                measured.push(x);
+            }
+        }
+    }
+    for (x, mut t) in measured.iter_mut().zip(times) {
+        t.sort_by(f64::total_cmp);
+        x.host_ns = t[t.len() / 2];
+    }
+    let mut fitted = fit(&start, &measured);
+    fitted.shared_cache = shared;
+    fitted.rounds = rounds;
+    fitted
 }
 
 /// Fits `start`'s costs to `measured` (see the module docs). Deterministic given the measurements.
@@ -1953,6 +2032,7 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
         config: m,
         rows,
         shared_cache: None,
+        rounds: 1,
     }
 }
 
@@ -1983,8 +2063,8 @@ impl Calibration {
             "# sism machine file fitted by `sism calibrate` on this host.\n\
              # CPU: {} (vendor {}, family {}, model {}), {} host threads, SIMD backend {backend}.\n\
              # Fitted on microbenchmarks only (see sism::machine::calibrate); check it with `sism validate`.\n\
-             # Per benchmark: what it fits, measured and model ns of one run.\n",
-            facts.model_name, facts.vendor, facts.family, facts.model, facts.threads
+             # Per benchmark: what it fits, measured (the median of {} pass(es) over the list) and model ns of one run.\n",
+            facts.model_name, facts.vendor, facts.family, facts.model, facts.threads, self.rounds
         );
         if let Some(p) = &self.shared_cache {
             s += &format!("# {}.\n", p.describe());
@@ -2206,6 +2286,7 @@ mod tests {
             config: truth,
             rows: rows.clone(),
             shared_cache: None,
+            rounds: 1,
         };
         let facts = crate::machine::host::HostFacts {
             model_name: "test cpu".into(),
