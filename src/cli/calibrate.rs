@@ -12,8 +12,8 @@ pub struct Args {
     #[arg(long, default_value = "out/host.toml")]
     out: PathBuf,
     /// Passes over the whole benchmark list (1..=9): each benchmark's host time is the median of
-    /// its passes, taken about a minute apart, so one slow moment of a shared host does not make
-    /// one cost dear. About a minute a pass.
+    /// its passes, taken tens of seconds apart, so one slow moment of a shared host does not make
+    /// one cost dear. Three passes take about a minute on the project's 2-core VM.
     #[arg(long, default_value_t = calibrate::DEFAULT_ROUNDS)]
     rounds: usize,
     /// No progress bar and no table.

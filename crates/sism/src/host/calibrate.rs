@@ -2,7 +2,8 @@
 //!
 //! Each microbenchmark is a kernel on the simd crate's instruction set dominated by one instruction
 //! class or one level of the memory hierarchy ([`BENCHES`]). It runs natively (the host's time, the
-//! median of [`REPEATS`] runs on one thread) and once under the counting context (its counters and
+//! median of [`REPEATS`] runs on one thread, and with [`calibrate_host`]'s passes over the whole list
+//! the median of its passes' medians) and once under the counting context (its counters and
 //! line stream: exactly what a frame's records hold). The model's prediction of a run is its
 //! replay on a one-core machine; every cost the fit sets enters that prediction linearly, so each is
 //! solved in closed form from the benchmark it dominates, holding the others, and the solve is
@@ -32,7 +33,8 @@
 //! run a core on every core). The shared-cache and random-line benchmarks on every thread at once
 //! are checks: on the project's host they take as long as on one thread, so nothing else is
 //! scaled for a busy chip. The other benchmarks (2 ALU chains, gathers at 1 and 4 distinct lines,
-//! gathers from L2 and DRAM, streaming stores, runs of 2, 4, 64 and 256 lines, random stores) are not fitted: their residuals show how well
+//! gathers from L2 and DRAM, runs of 2, 4, 64 and 256 lines, random stores, stored runs of 4 and 16
+//! lines) are not fitted: their residuals show how well
 //! the fitted model carries over.
 //!
 //! Frames are never used for fitting: `sism validate` checks the fitted model on them.
@@ -1798,7 +1800,8 @@ pub const DEFAULT_ROUNDS: usize = 3;
 /// back-to-back runs all fall in one such moment, so one slow moment made one cost dear (on the
 /// project's Intel Xeon VM, consecutive calibrations fitted `load_store_cycles` from 0.36 to 0.97
 /// and `writeback_cycles` from 3.1 to 12.9). `progress(what)` is called before the probe and before
-/// each benchmark of each pass. About a minute a pass; `sism validate --calibrate-per-scene` runs
+/// each benchmark of each pass. Three passes take about a minute on the project's 2-core VM (the
+/// first, counted, most of it); `sism validate --calibrate-per-scene` runs
 /// it before each scene, so the model and the frames it predicts are measured minutes apart.
 pub fn calibrate_host(rounds: usize, progress: &dyn Fn(&str)) -> Calibration {
     let rounds = rounds.clamp(1, 9);
