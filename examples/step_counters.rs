@@ -39,38 +39,27 @@ fn main() {
             println!("{},{kind:#x},{n},{cycles},{:.3}", p.phase, m.ms(cycles));
         }
     }
-    // Each bound of `compute_cost`'s out-of-order issue summed over the step's tasks, in ms: which
-    // one sets the prediction, and how far the others are from it.
+    // Each bound of `compute_cost`'s out-of-order issue (`timing::port_bounds`) summed over the
+    // step's tasks, in ms: which one sets the prediction, and how far the others are from it.
     println!("step,issue_ms,vector_ms,load_store_ms,scalar_ms,divider_ms,chain_ms,mispredict_ms");
     for p in &recs.0 {
-        let mut b = [0f64; 7];
+        let mut sum = [0f64; 7];
         for t in &p.tasks {
-            let c = &t.counters;
-            let vip = m.vector_issue_per_clock as f64;
-            let gs = ((c.gather_lines + c.scatter_lines) * m.gather_cycles_per_line as u64) as f64;
-            let vector = ((c.valu + c.fma) as f64 * m.vector_cycles
-                + c.mask_moves as f64 * m.mask_move_cycles
-                + c.compress_expand as f64 * m.compress_cycles
-                + c.scalar_float as f64 * m.scalar_float_cycles)
-                / vip
-                + (c.transcendental * m.transcendental_cycles as u64) as f64
-                + gs.max((c.gather + c.scatter) as f64 * m.gather_cycles);
-            let mem = (c.load + c.store + c.scalar_mem) as f64 * m.load_store_cycles / vip;
-            let scalar = (c.scalar + c.mask + c.scalar_alu + c.scalar_float + c.scalar_branch) as f64
-                * m.scalar_cycles
-                / m.scalar_issue_per_clock as f64;
-            let div = c.scalar_div as f64 * m.scalar_div_cycles;
-            let (issue, _) = sism::machine::timing::compute_cost(c, &m);
-            let chain = sism::machine::timing::chain_cycles(c, &m) as f64;
-            let mis = sism::machine::timing::mispredict_cycles(c, &m) as f64;
-            for (acc, v) in b
-                .iter_mut()
-                .zip([issue as f64, vector, mem, scalar, div, chain, mis])
-            {
+            let b = sism::machine::timing::port_bounds(&t.counters, &m);
+            let each = [
+                b.issue(),
+                b.vector,
+                b.load_store,
+                b.scalar,
+                b.divider,
+                b.chain,
+                b.mispredict,
+            ];
+            for (acc, v) in sum.iter_mut().zip(each) {
                 *acc += v;
             }
         }
-        let ms: Vec<String> = b.iter().map(|&c| format!("{:.3}", m.ms(c as u64))).collect();
+        let ms: Vec<String> = sum.iter().map(|&c| format!("{:.3}", m.ms(c as u64))).collect();
         println!("{},{}", p.phase, ms.join(","));
     }
 }

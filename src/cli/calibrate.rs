@@ -1,6 +1,6 @@
 //! `sism calibrate`: the host preset's costs fitted to microbenchmarks; writes the machine file.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use sism::host::calibrate::{self, BENCHES};
 
@@ -11,7 +11,7 @@ pub struct Args {
     /// The fitted machine file to write (TOML; use it with `--machine`).
     #[arg(long, default_value = "out/host.toml")]
     out: PathBuf,
-    /// Passes over the whole benchmark list (1..=9): each benchmark's host time is the median of
+    /// Passes over the whole benchmark list (1..=9, `calibrate::MAX_ROUNDS`): each benchmark's host time is the median of
     /// its passes, taken tens of seconds apart, so one slow moment of a shared host does not make
     /// one cost dear. Three passes take about a minute on the project's 2-core VM.
     #[arg(long, default_value_t = calibrate::DEFAULT_ROUNDS)]
@@ -22,11 +22,7 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        (1..=9).contains(&a.rounds),
-        "--rounds {}: must be 1..=9",
-        a.rounds
-    );
+    check_rounds("--rounds", a.rounds)?;
     let facts = sism::host::facts();
     let backend = facts.backend;
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -39,11 +35,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bar.inc(1);
     });
     bar.finish_and_clear();
-    fitted
-        .config
-        .validate()
-        .map_err(|(k, e)| anyhow::anyhow!("the fitted model is out of range: `{k}` {e}"))?;
-    write_file(&a.out, &fitted.to_toml(facts, backend.name()))?;
+    write_fit(&fitted, &a.out)?;
     if !a.quiet {
         print_stdout(&format!(
             "{} ({} threads, {} backend, {:.2} GHz)\n{}",
@@ -59,4 +51,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         note!("wrote {}", a.out.display());
     }
     Ok(())
+}
+
+/// `rounds` (the value of option `option`) as [`calibrate::calibrate_host`] takes it: 1 to
+/// [`calibrate::MAX_ROUNDS`].
+pub(super) fn check_rounds(option: &str, rounds: usize) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (1..=calibrate::MAX_ROUNDS).contains(&rounds),
+        "{option} {rounds}: must be 1..={}",
+        calibrate::MAX_ROUNDS
+    );
+    Ok(())
+}
+
+/// Writes `fitted`'s machine file to `path` after checking the fit in range; returns the file's
+/// text. What `sism calibrate` writes, and `sism validate --calibrate-per-scene` per scene.
+pub(super) fn write_fit(fitted: &calibrate::Calibration, path: &Path) -> anyhow::Result<String> {
+    fitted
+        .config
+        .validate()
+        .map_err(|(k, e)| anyhow::anyhow!("the fitted model is out of range: `{k}` {e}"))?;
+    let facts = sism::host::facts();
+    let toml = fitted.to_toml(facts, facts.backend.name());
+    write_file(path, &toml)?;
+    Ok(toml)
 }

@@ -62,11 +62,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "--frames {}: must be 1..=100",
         a.frames
     );
-    anyhow::ensure!(
-        (1..=9).contains(&a.calibration_rounds),
-        "--calibration-rounds {}: must be 1..=9",
-        a.calibration_rounds
-    );
+    super::calibrate::check_rounds("--calibration-rounds", a.calibration_rounds)?;
     anyhow::ensure!(
         a.tolerance.is_finite() && a.tolerance > 0.0 && a.tolerance < 10.0,
         "--tolerance {}: must be in (0, 10)",
@@ -142,19 +138,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 bar.set_message(format!("calibrating: {what}"));
                 bar.inc(1);
             });
-            fitted
-                .config
-                .validate()
-                .map_err(|(key, e)| anyhow::anyhow!("the fitted model is out of range: `{key}` {e}"))?;
-            let facts = sism::host::facts();
-            let toml = fitted.to_toml(facts, facts.backend.name());
             let stem = scene
                 .source
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "scene".into());
             let file = out.join(format!("calibration-{}-{stem}.toml", k + 1));
-            write_file(&file, &toml)?;
+            let toml = super::calibrate::write_fit(&fitted, &file)?;
             if k == 0 {
                 evidence = calibrate::evidence_from_toml(&toml);
             }

@@ -15,23 +15,8 @@ fn repo() -> &'static Path {
 fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("host.toml");
-    // Two passes over the benchmark list (the default is three): each time a median of passes.
-    let run = sism(
-        repo(),
-        &[
-            "calibrate",
-            "--out",
-            out.to_str().unwrap(),
-            "--rounds",
-            "2",
-            "--quiet",
-        ],
-    );
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.contains("the median of 2 pass(es)"), "{text}");
-    for rounds in ["0", "10", "many"] {
-        let bad = sism(
+    let calibrate = |rounds: &str| {
+        sism(
             repo(),
             &[
                 "calibrate",
@@ -41,8 +26,15 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
                 rounds,
                 "--quiet",
             ],
-        );
-        assert_clean_failure(&bad, &["--rounds"]);
+        )
+    };
+    // Two passes over the benchmark list (the default is three): each time a median of passes.
+    let run = calibrate("2");
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("the median of 2 pass(es)"), "{text}");
+    for rounds in ["0", "10", "many"] {
+        assert_clean_failure(&calibrate(rounds), &["--rounds"]);
     }
     // The evidence is in the file: every fitted benchmark's measured time, as comments.
     for bench in ["alu", "copy-l1", "gather-l1-16", "stream-dram", "tasks-1024"] {

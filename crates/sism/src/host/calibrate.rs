@@ -1791,10 +1791,13 @@ pub struct Calibration {
 /// the median of its rounds' medians, taken tens of seconds apart.
 pub const DEFAULT_ROUNDS: usize = 3;
 
+/// The most passes [`calibrate_host`] makes (a larger request is clamped to it).
+pub const MAX_ROUNDS: usize = 9;
+
 /// The whole calibration of this host, as `sism calibrate` runs it: the host preset
 /// ([`MachineConfig::host`]), the shared cache's usable capacity probed (the model's `l3_kb`, and
 /// the size of the shared-cache benchmarks), every benchmark of [`BENCHES`] measured in `rounds`
-/// (1..=9) passes over the whole list, then the fit. The first pass also counts each benchmark;
+/// (1..=[`MAX_ROUNDS`]) passes over the whole list, then the fit. The first pass also counts each benchmark;
 /// a benchmark's host time is the median of its passes' medians. Why passes rather than more
 /// repeats: a shared host's speed moves over seconds with its other tenants, and [`REPEATS`]
 /// back-to-back runs all fall in one such moment, so one slow moment made one cost dear (on the
@@ -1804,7 +1807,7 @@ pub const DEFAULT_ROUNDS: usize = 3;
 /// first, counted, most of it); `sism validate --calibrate-per-scene` runs
 /// it before each scene, so the model and the frames it predicts are measured minutes apart.
 pub fn calibrate_host(rounds: usize, progress: &dyn Fn(&str)) -> Calibration {
-    let rounds = rounds.clamp(1, 9);
+    let rounds = rounds.clamp(1, MAX_ROUNDS);
     let facts = super::facts();
     let mut start = MachineConfig::host(facts);
     progress("the shared cache's usable capacity");

@@ -197,14 +197,23 @@ impl TaskCost {
     }
 }
 
-/// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
-/// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
-/// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping. The real-valued
-/// per-class costs (`vector_cycles` and `mask_move_cycles`, `load_store_cycles`, `compress_cycles`,
-/// `scalar_cycles`, `gather_cycles`) are summed in `f64` and
-/// rounded up once; with Larrabee's costs of 1 every term is an exact integer, so the result is the
-/// integer formula's.
-pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
+/// A task's cycles per instruction class, before the issue rule combines them.
+struct ClassCycles {
+    /// Vector ALU and FMA work and mask moves.
+    alu: f64,
+    /// Contiguous vector loads and stores.
+    mem: f64,
+    /// Compress / expand.
+    compress: f64,
+    /// Transcendentals, gathers and scatters (issued one after another on the vector unit).
+    gathers: f64,
+    /// Scalar and mask-register instructions (declared and counted ALU, float and branch ones).
+    scalar_ops: u64,
+    /// The scalar divider's occupancy.
+    scalar_div: f64,
+}
+
+fn class_cycles(c: &Counters, m: &MachineConfig) -> ClassCycles {
     let alu =
         c.valu.saturating_add(c.fma) as f64 * m.vector_cycles + c.mask_moves as f64 * m.mask_move_cycles;
     let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
@@ -212,7 +221,6 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
     let gs_lines =
         (c.gather_lines.saturating_add(c.scatter_lines)).saturating_mul(m.gather_cycles_per_line as u64);
     let gs_floor = c.gather.saturating_add(c.scatter) as f64 * m.gather_cycles;
-    let vip = m.vector_issue_per_clock as f64;
     let gathers = c.transcendental.saturating_mul(m.transcendental_cycles as u64) as f64
         + (gs_lines as f64).max(gs_floor);
     let scalar_ops = c
@@ -222,27 +230,88 @@ pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
         .saturating_add(c.scalar_float)
         .saturating_add(c.scalar_branch);
     let scalar_div = c.scalar_div as f64 * m.scalar_div_cycles;
+    ClassCycles {
+        alu,
+        mem,
+        compress,
+        gathers,
+        scalar_ops,
+        scalar_div,
+    }
+}
+
+/// A task's issue bounds on an out-of-order core (`separate_ports`), cycles, each rounded up as
+/// [`compute_cost`] rounds it: the task issues in the largest of the first five, plus its
+/// mispredicts ([`PortBounds::issue`]). Printed per step by `examples/step_counters.rs`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PortBounds {
+    /// The vector unit: ALU, FMA, mask moves, compress/expand and scalar floats on its pipes
+    /// (over its issue rate), then transcendentals, gathers and scatters.
+    pub vector: f64,
+    /// The load/store ports: vector and scalar loads and stores.
+    pub load_store: f64,
+    /// The scalar ALUs.
+    pub scalar: f64,
+    /// The scalar divider.
+    pub divider: f64,
+    /// The recorded critical path ([`chain_cycles`]).
+    pub chain: f64,
+    /// The mispredicted branches ([`mispredict_cycles`]), added: nothing overlaps a refill.
+    pub mispredict: f64,
+}
+
+impl PortBounds {
+    /// The task's issue cycles: the largest bound, plus the mispredicts.
+    pub fn issue(&self) -> f64 {
+        self.vector
+            .max(self.load_store)
+            .max(self.scalar.max(self.divider))
+            .max(self.chain)
+            + self.mispredict
+    }
+}
+
+/// [`PortBounds`] of a task's counters on `m` (whether or not `m` has `separate_ports`).
+pub fn port_bounds(c: &Counters, m: &MachineConfig) -> PortBounds {
+    let k = class_cycles(c, m);
+    let vip = m.vector_issue_per_clock as f64;
+    // Out of order: a scalar load or store takes a load/store port's slot, as a vector one does,
+    // not a scalar ALU's.
+    let mem = k.mem + c.scalar_mem as f64 * m.load_store_cycles;
+    let scalar_alu = k.scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
+    // Scalar float arithmetic also occupies the vector unit's pipes.
+    let scalar_float_pipes = c.scalar_float as f64 * m.scalar_float_cycles;
+    // The divider works beside the scalar ALUs, and dependent operations wait for each other, so
+    // the task takes at least its critical path, however wide the issue. A mispredicted branch
+    // refills the pipeline: nothing overlaps it.
+    PortBounds {
+        vector: ((k.alu + scalar_float_pipes + k.compress) / vip).ceil() + k.gathers,
+        load_store: (mem / vip).ceil(),
+        scalar: scalar_alu.ceil(),
+        divider: k.scalar_div.ceil(),
+        chain: chain_cycles(c, m) as f64,
+        mispredict: mispredict_cycles(c, m) as f64,
+    }
+}
+
+/// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
+/// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
+/// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping. The real-valued
+/// per-class costs (`vector_cycles` and `mask_move_cycles`, `load_store_cycles`, `compress_cycles`,
+/// `scalar_cycles`, `gather_cycles`) are summed in `f64` and
+/// rounded up once; with Larrabee's costs of 1 every term is an exact integer, so the result is the
+/// integer formula's.
+pub fn compute_cost(c: &Counters, m: &MachineConfig) -> (u64, u64) {
     let issue = if m.separate_ports {
-        // Out of order: a scalar load or store takes a load/store port's slot, as a vector one
-        // does, not a scalar ALU's.
-        let mem = mem + c.scalar_mem as f64 * m.load_store_cycles;
-        let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
-        // Scalar float arithmetic also occupies the vector unit's pipes.
-        let scalar_float_pipes = c.scalar_float as f64 * m.scalar_float_cycles;
-        // Out of order: the divider works beside the scalar ALUs, and dependent operations wait
-        // for each other, so the task takes at least its critical path, however wide the issue.
-        // A mispredicted branch refills the pipeline: nothing overlaps it.
-        (((alu + scalar_float_pipes + compress) / vip).ceil() + gathers)
-            .max((mem / vip).ceil())
-            .max(scalar_alu.max(scalar_div).ceil())
-            .max(chain_cycles(c, m) as f64)
-            + mispredict_cycles(c, m) as f64
+        port_bounds(c, m).issue()
     } else {
         // In order: scalar loads and stores go down the scalar pipe, and the divider blocks it.
-        let scalar_ops = scalar_ops.saturating_add(c.scalar_mem);
+        let k = class_cycles(c, m);
+        let vip = m.vector_issue_per_clock as f64;
+        let scalar_ops = k.scalar_ops.saturating_add(c.scalar_mem);
         let scalar_alu = scalar_ops as f64 * m.scalar_cycles / m.scalar_issue_per_clock as f64;
-        let scalar = (scalar_alu + scalar_div).ceil();
-        (((alu + mem + compress) / vip).ceil() + gathers).max(scalar)
+        let scalar = (scalar_alu + k.scalar_div).ceil();
+        (((k.alu + k.mem + k.compress) / vip).ceil() + k.gathers).max(scalar)
     };
     let atomics = c
         .atomic
