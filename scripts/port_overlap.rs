@@ -85,7 +85,7 @@ fn main() {
                 unsafe { run(iters, v, s, l, buf.as_mut_ptr()) };
                 best = best.min(t.elapsed().as_secs_f64());
             }
-            // ns per iteration, and cycles at 2.1 GHz
+            // Cycles of an iteration at the nominal 2.1 GHz.
             let cycles = best / iters as f64 * 2.1e9;
             row.push(cycles);
             line += &format!("{name}: {cycles:.2} cyc  ");

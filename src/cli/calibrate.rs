@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use sism::host::calibrate::{self, BENCHES};
+use sism::host::calibrate;
 
 use super::{create_dir, print_stdout, write_file};
 
@@ -28,8 +28,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         create_dir(dir)?;
     }
-    // The probe, then one step per benchmark and pass.
-    let bar = sism::progress::bar((BENCHES.len() * a.rounds) as u64 + 1, "microbenchmarks", !a.quiet);
+    let bar = sism::progress::bar(
+        calibrate::calibrate_host_steps(a.rounds),
+        "microbenchmarks",
+        !a.quiet,
+    );
     let fitted = calibrate::calibrate_host(a.rounds, &|what| {
         bar.set_message(what);
         bar.inc(1);

@@ -120,7 +120,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .unwrap_or_default();
     let runs = (scenes.len() * algos.len()) as u64;
     let calibrations = if a.calibrate_per_scene {
-        scenes.len() as u64 * ((calibrate::BENCHES.len() * a.calibration_rounds) as u64 + 1)
+        scenes.len() as u64 * calibrate::calibrate_host_steps(a.calibration_rounds)
     } else {
         0
     };

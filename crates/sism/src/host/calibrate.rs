@@ -1794,6 +1794,12 @@ pub const DEFAULT_ROUNDS: usize = 3;
 /// The most passes [`calibrate_host`] makes (a larger request is clamped to it).
 pub const MAX_ROUNDS: usize = 9;
 
+/// The calls of `progress` [`calibrate_host`] makes for `rounds` (1..=[`MAX_ROUNDS`]) passes: the
+/// probe, then one per benchmark and pass (a progress bar's length).
+pub fn calibrate_host_steps(rounds: usize) -> u64 {
+    (BENCHES.len() * rounds.clamp(1, MAX_ROUNDS)) as u64 + 1
+}
+
 /// The whole calibration of this host, as `sism calibrate` runs it: the host preset
 /// ([`MachineConfig::host`]), the shared cache's usable capacity probed (the model's `l3_kb`, and
 /// the size of the shared-cache benchmarks), every benchmark of [`BENCHES`] measured in `rounds`
