@@ -238,6 +238,35 @@ pub fn run_counting_with<K: Kernel>(kind: BackendKind, rec: &Recorder, k: K) -> 
     run_with(kind, CountingKernel { k, rec })
 }
 
+/// [`run_native`] compiled for two backends instead of four: AVX-512 when it is the selected
+/// backend, else the portable code for the baseline target. For builds that need every kernel but
+/// not every backend's code of it, where each backend's instantiation of each kernel costs compile
+/// time: the library's unit-test build (results are bit-identical on every backend; each backend's
+/// operations are tested by this crate's suites, and whole kernels on every backend by the
+/// end-to-end tests of the normal build).
+#[inline]
+pub fn run_native_lean<K: Kernel>(k: K) -> K::Output {
+    match selected_backend() {
+        #[cfg(target_arch = "x86_64")]
+        BackendKind::Avx512 => {
+            assert!(crate::avx512::detected(), "sism-simd: AVX-512 not available");
+            // SAFETY: features detected just above.
+            unsafe { x86::run_avx512(k) }
+        }
+        _ => run_portable(k),
+    }
+}
+
+/// [`run_counting`] compiled for one backend: counting over the portable code for the baseline
+/// target, whatever the selected backend (records and results are the same on every backend). For
+/// builds that need every kernel but not every backend's code of it ([`run_native_lean`]).
+#[inline]
+pub fn run_counting_lean<K: Kernel>(rec: &Recorder, k: K) -> K::Output {
+    let mark = 0u8;
+    rec.mark_stack(core::hint::black_box(&mark) as *const u8 as usize);
+    run_portable(CountingKernel { k, rec })
+}
+
 struct CountingKernel<'r, K> {
     k: K,
     rec: &'r Recorder,

@@ -98,8 +98,8 @@ pub mod avx512;
 pub use alloc::{HoldFrees, LineAlloc, GAP_LINES};
 pub use counting::{latency, Counting, Recorder, Tracked, STACK_LINES_BASE, STACK_WINDOW, WINDOW};
 pub use dispatch::{
-    available, available_backends, best_available, parse_backend, run_counting, run_counting_with,
-    run_native, run_with, selected_backend, set_backend, Kernel,
+    available, available_backends, best_available, parse_backend, run_counting, run_counting_lean,
+    run_counting_with, run_native, run_native_lean, run_with, selected_backend, set_backend, Kernel,
 };
 pub use mask::{Mask16, MaskIter};
 pub use portable::{F32x16, I32x16, Portable};

@@ -31,15 +31,38 @@ pub enum Exec {
     Counting,
 }
 
+/// Runs kernel `k` natively on the selected backend ([`sism_simd::run_native`]). In the library's
+/// unit-test build, on AVX-512 or the portable baseline only ([`sism_simd::run_native_lean`]): every
+/// kernel is compiled once per backend, and the four backends' copies of every algorithm were half
+/// of CI's build time; the unit tests check the algorithms, which give the same bits on every
+/// backend (the simd crate's suites and the end-to-end tests check every backend).
+#[inline]
+pub fn native<K: Kernel>(k: K) -> K::Output {
+    #[cfg(not(test))]
+    return sism_simd::run_native(k);
+    #[cfg(test)]
+    return sism_simd::run_native_lean(k);
+}
+
+/// Runs kernel `k` counted into `recorder` ([`sism_simd::run_counting`]); in the library's
+/// unit-test build, over the portable baseline only ([`native`]; the records are the same).
+#[inline]
+pub fn counting<K: Kernel>(recorder: &Recorder, k: K) -> K::Output {
+    #[cfg(not(test))]
+    return sism_simd::run_counting(recorder, k);
+    #[cfg(test)]
+    return sism_simd::run_counting_lean(recorder, k);
+}
+
 /// Runs kernel `k` as one task under `exec`: its output and, under [`Exec::Counting`], its records
 /// (a fresh recorder per task: recorders are per thread).
 #[inline]
 pub fn run_task<K: Kernel>(exec: Exec, k: K) -> (K::Output, Vec<TaskRecord>) {
     match exec {
-        Exec::Native => (sism_simd::run_native(k), Vec::new()),
+        Exec::Native => (native(k), Vec::new()),
         Exec::Counting => {
             let recorder = Recorder::new();
-            let out = sism_simd::run_counting(&recorder, k);
+            let out = counting(&recorder, k);
             (out, recorder.take_tasks())
         }
     }

@@ -304,7 +304,7 @@ pub fn receiver_visibility(
     strata: &Strata,
     rng: &mut Rng,
 ) -> (f32, u32) {
-    sism_simd::run_native(ReceiverBeams {
+    crate::exec::native(ReceiverBeams {
         bvh,
         light,
         receiver: r,
@@ -571,7 +571,7 @@ pub fn render_visibility(
         .enumerate()
         .map(|(j, (out, row))| {
             let rays = match topology {
-                None => sism_simd::run_native(RowBeams {
+                None => crate::exec::native(RowBeams {
                     bvh,
                     light: &scene.light,
                     row,

@@ -165,6 +165,15 @@ pub fn throughput_chains() -> usize {
     })
 }
 
+/// `chains`, or [`throughput_chains`] for [`THROUGHPUT_CHAINS`].
+fn resolve_chains(chains: usize) -> usize {
+    if chains == THROUGHPUT_CHAINS {
+        throughput_chains()
+    } else {
+        chains
+    }
+}
+
 /// `iters` rounds of [`AluK`] on `C` chains, natively (`None`) or counted into the recorder.
 fn alu_run<const C: usize>(iters: usize, r: Option<&Recorder>) -> f32 {
     run_on(r, AluK::<C> { iters, seed: 1.0 })
@@ -188,16 +197,20 @@ enum Kind {
         chains: usize,
     },
     /// `iters` rounds of [`ScalarK`]'s integer chains, with (`vector`) or without the `alu`
-    /// benchmark's 8 vector add/mul/fma on its chains.
+    /// benchmark's 8 vector add/mul/fma on `chains` chains (2, 4 or 8; [`THROUGHPUT_CHAINS`]: the
+    /// `alu` benchmark's).
     ScalarChain {
         iters: usize,
         vector: bool,
+        chains: usize,
     },
     /// `iters` rounds of 8 scalar float adds and multiplies on 8 independent chains, with
-    /// (`vector`) or without 8 vector add/mul/fma on the `alu` benchmark's chains ([`FloatMixK`]).
+    /// (`vector`) or without 8 vector add/mul/fma on `chains` chains ([`FloatMixK`]; as
+    /// `ScalarChain`'s).
     ScalarFloat {
         iters: usize,
         vector: bool,
+        chains: usize,
     },
     /// `iters` rounds of [`CompareSelectK`]: compares into masks, mask logic and selects on 8
     /// independent chains, through the kernels' API.
@@ -341,6 +354,7 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::ScalarChain {
             iters: 1_000_000,
             vector: false,
+            chains: THROUGHPUT_CHAINS,
         },
     },
     Bench {
@@ -350,6 +364,7 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::ScalarChain {
             iters: 1_000_000,
             vector: true,
+            chains: THROUGHPUT_CHAINS,
         },
     },
     Bench {
@@ -372,6 +387,7 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::ScalarFloat {
             iters: 200_000,
             vector: true,
+            chains: THROUGHPUT_CHAINS,
         },
     },
     Bench {
@@ -381,6 +397,7 @@ pub const BENCHES: &[Bench] = &[
         kind: Kind::ScalarFloat {
             iters: 400_000,
             vector: false,
+            chains: THROUGHPUT_CHAINS,
         },
     },
     Bench {
@@ -1167,8 +1184,8 @@ impl Kernel for RandomK<'_> {
 /// Runs `k` natively (`r` = `None`, the timed run) or counted into `r`.
 fn run_on<K: Kernel>(r: Option<&Recorder>, k: K) -> K::Output {
     match r {
-        None => sism_simd::run_native(k),
-        Some(r) => sism_simd::run_counting(r, k),
+        None => crate::exec::native(k),
+        Some(r) => crate::exec::counting(r, k),
     }
 }
 
@@ -1333,12 +1350,7 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
         Kind::Alu { iters, chains } => {
             // One instance per chain count (a const parameter, so the rounds compile to straight
             // chains); the same kernel counted.
-            let chains = if chains == THROUGHPUT_CHAINS {
-                throughput_chains()
-            } else {
-                chains
-            };
-            let f: fn(usize, Option<&Recorder>) -> f32 = match chains {
+            let f: fn(usize, Option<&Recorder>) -> f32 = match resolve_chains(chains) {
                 1 => alu_run::<1>,
                 2 => alu_run::<2>,
                 4 => alu_run::<4>,
@@ -1351,10 +1363,14 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
         Kind::CompareSelect { iters } => native_and_counted(&mut |r| {
             black_box(run_on(r, CompareSelectK { iters }));
         }),
-        Kind::ScalarFloat { iters, vector } => {
+        Kind::ScalarFloat {
+            iters,
+            vector,
+            chains,
+        } => {
             // The vector rounds on the `alu` benchmark's chains: the scalar floats are fitted
             // against the work `vector_cycles` was.
-            let f: fn(usize, bool, Option<&Recorder>) -> f32 = match throughput_chains() {
+            let f: fn(usize, bool, Option<&Recorder>) -> f32 = match resolve_chains(chains) {
                 2 => float_mix_run::<2>,
                 4 => float_mix_run::<4>,
                 _ => float_mix_run::<8>,
@@ -1363,9 +1379,13 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
                 black_box(f(iters, vector, r));
             })
         }
-        Kind::ScalarChain { iters, vector } => {
+        Kind::ScalarChain {
+            iters,
+            vector,
+            chains,
+        } => {
             // The vector rounds on the `alu` benchmark's chains, as `alu-scalar-float`'s.
-            let f: fn(usize, bool, Option<&Recorder>) -> u32 = match throughput_chains() {
+            let f: fn(usize, bool, Option<&Recorder>) -> u32 = match resolve_chains(chains) {
                 2 => scalar_chain_run::<2>,
                 4 => scalar_chain_run::<4>,
                 _ => scalar_chain_run::<8>,
@@ -1441,7 +1461,7 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
             let mut data = vec![1.0f32; n];
             let passes = (bytes / (n * 4)).max(1);
             let ns = time(&mut || {
-                black_box(sism_simd::run_native(StreamK {
+                black_box(crate::exec::native(StreamK {
                     data: &mut data,
                     passes,
                     store,
@@ -1449,7 +1469,7 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
             });
             // One pass warms the model's caches as the native warm-up run warmed the host's.
             warm = counted(&mut |r| {
-                sism_simd::run_counting(
+                crate::exec::counting(
                     r,
                     StreamK {
                         data: &mut data,
@@ -1459,7 +1479,7 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
                 );
             });
             let tasks = counted(&mut |r| {
-                sism_simd::run_counting(
+                crate::exec::counting(
                     r,
                     StreamK {
                         data: &mut data,
@@ -1543,13 +1563,13 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
             let mut st = 7u64;
             let masks: Vec<u16> = (0..count).map(|_| lcg(&mut st) as u16).collect();
             let ns = time(&mut || {
-                black_box(sism_simd::run_native(CompressK {
+                black_box(crate::exec::native(CompressK {
                     out: &mut out,
                     masks: &masks,
                 }));
             });
             let tasks = counted(&mut |r| {
-                sism_simd::run_counting(
+                crate::exec::counting(
                     r,
                     CompressK {
                         out: &mut out,
@@ -1564,14 +1584,14 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
             let from = vec![1.0f32; n];
             let mut to = vec![0.0f32; n];
             let ns = time(&mut || {
-                black_box(sism_simd::run_native(CopyK {
+                black_box(crate::exec::native(CopyK {
                     from: &from,
                     to: &mut to,
                     passes,
                 }));
             });
             let tasks = counted(&mut |r| {
-                sism_simd::run_counting(
+                crate::exec::counting(
                     r,
                     CopyK {
                         from: &from,
@@ -2136,7 +2156,13 @@ mod tests {
                 iters: 2000,
                 chains: if chains == THROUGHPUT_CHAINS { 8 } else { chains },
             },
-            Kind::ScalarChain { vector, .. } => Kind::ScalarChain { iters: 5000, vector },
+            // The vector rounds beside the scalar work on 8 chains too, whatever the backend (the
+            // fit then does not depend on which chain count this host's backend runs fastest).
+            Kind::ScalarChain { vector, .. } => Kind::ScalarChain {
+                iters: 5000,
+                vector,
+                chains: 8,
+            },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
             Kind::ScalarDivide { .. } => Kind::ScalarDivide { iters: 2000 },
             Kind::Branch { period, .. } => Kind::Branch {
@@ -2144,7 +2170,11 @@ mod tests {
                 period,
             },
             Kind::ScalarMix { .. } => Kind::ScalarMix { points: 1000 },
-            Kind::ScalarFloat { vector, .. } => Kind::ScalarFloat { iters: 2000, vector },
+            Kind::ScalarFloat { vector, .. } => Kind::ScalarFloat {
+                iters: 2000,
+                vector,
+                chains: 8,
+            },
             Kind::Gather {
                 table_kb,
                 lines,

@@ -567,7 +567,7 @@ mod tests {
                             super::super::chain::build(p, &map, setup.layers)
                         });
                         let mut out = vec![0f32; samples.len()];
-                        let counts = sism_simd::run_native(SsmmTask {
+                        let counts = crate::exec::native(SsmmTask {
                             map: &map,
                             chain: &chain,
                             receivers: &receivers,
