@@ -1,0 +1,122 @@
+//! Does an out-of-order host overlap the vector unit's classes? The host model's vector bound
+//! (`machine::timing::port_bounds`) adds a task's ALU work, its transcendentals (divides, square
+//! roots) and its gathers, as if one unit issued them one after another. A standalone measurement,
+//! not part of the build, the sibling of `port_overlap.rs`:
+//!
+//!     rustc -C opt-level=3 -o /tmp/vector_overlap scripts/vector_overlap.rs && /tmp/vector_overlap
+//!
+//! Each loop iteration issues, in inline assembly so the compiler changes nothing: A = 16
+//! independent `vaddps zmm`; D = 2 independent `vdivps zmm`; G = 1 `vgatherdps zmm` of 16 lanes
+//! from one L1-resident line pair (its mask set first, as a gather clears it). Every class alone
+//! and every mix is timed (the best of 5 runs, 9 rounds, the median round), in cycles of a nominal
+//! 2.1 GHz clock. `alpha` is `(mix - largest part) / (sum of parts - largest part)`: 0 when the
+//! classes overlap completely, 1 when they add up (the model's rule today).
+
+use std::arch::asm;
+use std::time::Instant;
+
+/// `iters` iterations of the chosen classes; `table` holds at least 32 f32, 64-byte aligned.
+#[inline(never)]
+unsafe fn run(iters: u64, a: bool, d: bool, g: bool, table: *const f32) {
+    // Gather indices 0..15 (one line) in zmm20; divide operands 1.0 in zmm21, zmm22.
+    let idx: [i32; 16] = core::array::from_fn(|i| i as i32);
+    let ones = [1.0f32; 16];
+    asm!(
+        "vmovdqu32 zmm20, [{i}]",
+        "vmovups zmm21, [{o}]",
+        "vmovups zmm22, [{o}]",
+        i = in(reg) idx.as_ptr(), o = in(reg) ones.as_ptr(),
+        out("zmm20") _, out("zmm21") _, out("zmm22") _,
+        options(nostack, readonly));
+    for _ in 0..iters {
+        if a {
+            asm!(
+                "vxorps zmm8, zmm8, zmm8",
+                "vxorps zmm9, zmm9, zmm9",
+                "vaddps zmm0, zmm8, zmm9", "vaddps zmm1, zmm8, zmm9", "vaddps zmm2, zmm8, zmm9", "vaddps zmm3, zmm8, zmm9",
+                "vaddps zmm4, zmm8, zmm9", "vaddps zmm5, zmm8, zmm9", "vaddps zmm6, zmm8, zmm9", "vaddps zmm7, zmm8, zmm9",
+                "vaddps zmm0, zmm9, zmm8", "vaddps zmm1, zmm9, zmm8", "vaddps zmm2, zmm9, zmm8", "vaddps zmm3, zmm9, zmm8",
+                "vaddps zmm4, zmm9, zmm8", "vaddps zmm5, zmm9, zmm8", "vaddps zmm6, zmm9, zmm8", "vaddps zmm7, zmm9, zmm8",
+                out("zmm0") _, out("zmm1") _, out("zmm2") _, out("zmm3") _, out("zmm4") _, out("zmm5") _, out("zmm6") _, out("zmm7") _, out("zmm8") _, out("zmm9") _,
+                options(nostack));
+        }
+        if d {
+            // Independent divides of 1/1 (no denormals, no chain between iterations).
+            asm!(
+                "vdivps zmm10, zmm21, zmm22",
+                "vdivps zmm11, zmm22, zmm21",
+                out("zmm10") _, out("zmm11") _,
+                options(nostack));
+        }
+        if g {
+            asm!(
+                "kxnorw k1, k1, k1",
+                "vgatherdps zmm12{{k1}}, [{t} + zmm20*4]",
+                t = in(reg) table,
+                out("zmm12") _, out("k1") _,
+                options(nostack, readonly));
+        }
+    }
+}
+
+fn main() {
+    if !std::arch::is_x86_feature_detected!("avx512f") {
+        eprintln!("vector_overlap: this CPU has no AVX-512; nothing measured");
+        std::process::exit(2);
+    }
+    #[repr(C, align(64))]
+    struct Table([f32; 32]);
+    let table = Table([1.0; 32]);
+    let iters = 10_000_000u64;
+    let cases = [
+        ("A", true, false, false),
+        ("D", false, true, false),
+        ("G", false, false, true),
+        ("A+D", true, true, false),
+        ("A+G", true, false, true),
+        ("D+G", false, true, true),
+        ("A+D+G", true, true, true),
+    ];
+    let mut rounds: Vec<Vec<f64>> = Vec::new();
+    for _round in 0..9 {
+        let mut line = String::new();
+        let mut row = Vec::new();
+        for &(name, a, d, g) in &cases {
+            let mut best = f64::MAX;
+            for _ in 0..5 {
+                let t = Instant::now();
+                unsafe { run(iters, a, d, g, table.0.as_ptr()) };
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+            let cycles = best / iters as f64 * 2.1e9;
+            row.push(cycles);
+            line += &format!("{name}: {cycles:.2} cyc  ");
+        }
+        println!("{line}");
+        rounds.push(row);
+    }
+    let median = |k: usize| {
+        let mut v: Vec<f64> = rounds.iter().map(|r| r[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let m: Vec<f64> = (0..cases.len()).map(median).collect();
+    let alpha = |mix: usize, parts: &[usize]| {
+        let largest = parts.iter().map(|&p| m[p]).fold(0.0, f64::max);
+        let sum: f64 = parts.iter().map(|&p| m[p]).sum();
+        (m[mix] - largest) / (sum - largest)
+    };
+    let names: Vec<String> = cases
+        .iter()
+        .zip(&m)
+        .map(|(c, v)| format!("{} {v:.2}", c.0))
+        .collect();
+    println!("median round: {}", names.join(", "));
+    println!(
+        "alpha: A+D {:.2}, A+G {:.2}, D+G {:.2}, A+D+G {:.2}",
+        alpha(3, &[0, 1]),
+        alpha(4, &[0, 2]),
+        alpha(5, &[1, 2]),
+        alpha(6, &[0, 1, 2])
+    );
+}
