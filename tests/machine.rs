@@ -516,6 +516,11 @@ fn plate_on_larrabee_24_and_replay() {
     let canonical = sism::machine::canonical(&records);
     // First-touch ids time exactly as the addresses they replace.
     assert_eq!(simulate(&canonical, &m), r);
+    // The replay's own mapped lines give the same first-touch form, and the same report.
+    assert_eq!(
+        sism::machine::simulate_canonical(&records, &m),
+        (r.clone(), canonical.clone())
+    );
     save_records(&path, &canonical).unwrap();
     let loaded = load_records(&path).unwrap();
     assert_eq!(loaded, canonical);
@@ -529,8 +534,12 @@ fn plate_on_larrabee_24_and_replay() {
     let direct = simulate(&records, &host);
     assert_eq!(simulate(&loaded, &host), direct);
     assert!(direct.frame.memory.l2_misses > 0);
-    // Saving the saved records again changes nothing.
+    // Saving the saved records again changes nothing, by either path.
     assert_eq!(sism::machine::canonical(&loaded), loaded);
+    assert_eq!(
+        sism::machine::simulate_canonical(&loaded, &host),
+        (direct.clone(), loaded.clone())
+    );
     // A second counted render (new allocations at new addresses) times identically.
     assert_eq!(simulate(&counted_records(&scene), &m), r);
     // A corrupt file is an error, not a panic.

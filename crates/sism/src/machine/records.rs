@@ -96,6 +96,27 @@ impl std::ops::Deref for CanonicalRecords {
 /// on addresses, which the ids no longer are). Records already in that form are copied.
 pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
     let mut ids = LineIds::new();
+    first_touch_form(records, |p, t| {
+        let mut lines = LineStreamEncoder::default();
+        let mut streams = StreamFollower::default();
+        t.lines.for_each(|line, write| {
+            let (line, stream) = if p.first_touch {
+                timing::canonical_parts(line)
+            } else {
+                (line, streams.follow(line))
+            };
+            lines.push(timing::canonical_line(ids.id(line), stream), write)
+        });
+        lines.finish()
+    })
+}
+
+/// `records` in first-touch form, each task's lines given by `lines` (called for every task in
+/// record order with its step): [`canonical`]'s and [`super::simulate_canonical`]'s shape.
+pub(crate) fn first_touch_form(
+    records: &[PhaseRecords],
+    mut lines: impl FnMut(&PhaseRecords, &TaskRecord) -> sism_simd::LineStream,
+) -> CanonicalRecords {
     CanonicalRecords(
         records
             .iter()
@@ -106,22 +127,10 @@ pub fn canonical(records: &[PhaseRecords]) -> CanonicalRecords {
                 tasks: p
                     .tasks
                     .iter()
-                    .map(|t| {
-                        let mut lines = LineStreamEncoder::default();
-                        let mut streams = StreamFollower::default();
-                        t.lines.for_each(|line, write| {
-                            let (line, stream) = if p.first_touch {
-                                timing::canonical_parts(line)
-                            } else {
-                                (line, streams.follow(line))
-                            };
-                            lines.push(timing::canonical_line(ids.id(line), stream), write)
-                        });
-                        TaskRecord {
-                            kind: t.kind,
-                            counters: t.counters,
-                            lines: lines.finish(),
-                        }
+                    .map(|t| TaskRecord {
+                        kind: t.kind,
+                        counters: t.counters,
+                        lines: lines(p, t),
                     })
                     .collect(),
             })

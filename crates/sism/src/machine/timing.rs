@@ -739,6 +739,18 @@ impl<'a> Step<'a> {
 /// the caches. Both stages run in record order, so the result is the same as
 /// [`Machine::run_phase`] phase after phase, whatever the host's threads.
 pub fn simulate_frame(config: &MachineConfig, phases: &[Step<'_>]) -> Vec<PhaseReport> {
+    simulate_frame_with(config, phases, |_, _| {})
+}
+
+/// [`simulate_frame`], also handing `lines` every task's mapped lines (as [`LineMapper::map`] gives
+/// them), chunk by chunk in frame order, with `true` on a task's last chunk: what the records file's
+/// first-touch form is made of ([`crate::machine::simulate_canonical`]). `lines` runs on the
+/// calling thread, the cache simulation's, beside the mapping thread (the pipeline's slow stage).
+pub fn simulate_frame_with(
+    config: &MachineConfig,
+    phases: &[Step<'_>],
+    mut lines: impl FnMut(&[u32], bool),
+) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
     std::thread::scope(|scope| {
@@ -769,6 +781,7 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[Step<'_>]) -> Vec<PhaseR
                 machine.run_phase_with(step, |_, replay| loop {
                     let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
                     replay(&chunk);
+                    lines(&chunk, pages.is_some());
                     // Hand the buffer back for reuse (the mapper may have finished).
                     let _ = empty_tx.send(chunk);
                     if let Some(pages) = pages {
