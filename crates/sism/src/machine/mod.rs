@@ -49,8 +49,8 @@ pub fn simulate(records: &[PhaseRecords], config: &MachineConfig) -> MachineRepo
 /// [`simulate`] and [`canonical`] of the same records in one pass: the replay's mapping stage gives
 /// every line its first-touch id and stream state, which is what the records file holds, so the
 /// records' first-touch form is encoded from the replay's own lines instead of mapping them all
-/// again (`render --machine` on japanese-maple 800×600, Xeon VM: 4.2 s canonicalising beside a 3.1 s
-/// replay). Both results equal the separate calls'.
+/// again (`render --machine` on japanese-maple 800×600, Xeon VM: 4.3–4.7 s canonicalising beside a
+/// 3.2–3.5 s replay). Both results equal the separate calls'.
 pub fn simulate_canonical(
     records: &[PhaseRecords],
     config: &MachineConfig,
