@@ -6,8 +6,9 @@
 //! Each loop iteration issues, in inline assembly so the compiler changes nothing: V = 16
 //! independent `vaddps zmm` (two 512-bit ALU ports: 8 cycles), S = 18 scalar `add`s in 6 short
 //! chains (each started by a zero idiom), L = 8 scalar loads and 4 stores to one L1 line pair. Every
-//! class alone and every mix is timed (the best of 5 runs of 20M iterations, 9 rounds, the median
-//! round), in cycles of a nominal 2.1 GHz clock (a turbo clock makes them smaller; ratios hold).
+//! class alone and every mix is timed by `overlap_harness.rs` (the best of 5 runs of 20M
+//! iterations, 9 rounds, the median round), in cycles of a nominal 2.1 GHz clock (a turbo clock
+//! makes them smaller; ratios hold).
 //! `alpha` is `(mix - largest part) / (sum of parts - largest part)`: 0 when the classes overlap
 //! completely (the model's rule: the largest port bound), 1 when they add up.
 //!
@@ -19,7 +20,8 @@
 //! cycle), which the model does not have.
 
 use std::arch::asm;
-use std::time::Instant;
+#[path = "overlap_harness.rs"]
+mod harness;
 
 /// `iters` iterations of the chosen classes (see the module's docs); `buf` holds at least 12 u64.
 #[inline(never)]
@@ -65,56 +67,7 @@ fn main() {
     }
     let mut buf = vec![0u64; 64];
     let iters = 20_000_000u64;
-    let cases = [
-        ("V", true, false, false),
-        ("S", false, true, false),
-        ("L", false, false, true),
-        ("V+S", true, true, false),
-        ("V+L", true, false, true),
-        ("S+L", false, true, true),
-        ("V+S+L", true, true, true),
-    ];
-    let mut rounds: Vec<Vec<f64>> = Vec::new();
-    for _round in 0..9 {
-        let mut line = String::new();
-        let mut row = Vec::new();
-        for &(name, v, s, l) in &cases {
-            let mut best = f64::MAX;
-            for _ in 0..5 {
-                let t = Instant::now();
-                unsafe { run(iters, v, s, l, buf.as_mut_ptr()) };
-                best = best.min(t.elapsed().as_secs_f64());
-            }
-            // Cycles of an iteration at the nominal 2.1 GHz.
-            let cycles = best / iters as f64 * 2.1e9;
-            row.push(cycles);
-            line += &format!("{name}: {cycles:.2} cyc  ");
-        }
-        println!("{line}");
-        rounds.push(row);
-    }
-    let median = |k: usize| {
-        let mut v: Vec<f64> = rounds.iter().map(|r| r[k]).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let m: Vec<f64> = (0..cases.len()).map(median).collect();
-    let alpha = |mix: usize, parts: &[usize]| {
-        let largest = parts.iter().map(|&p| m[p]).fold(0.0, f64::max);
-        let sum: f64 = parts.iter().map(|&p| m[p]).sum();
-        (m[mix] - largest) / (sum - largest)
-    };
-    let names: Vec<String> = cases
-        .iter()
-        .zip(&m)
-        .map(|(c, v)| format!("{} {v:.2}", c.0))
-        .collect();
-    println!("median round: {}", names.join(", "));
-    println!(
-        "alpha: V+S {:.2}, V+L {:.2}, S+L {:.2}, V+S+L {:.2}",
-        alpha(3, &[0, 1]),
-        alpha(4, &[0, 2]),
-        alpha(5, &[1, 2]),
-        alpha(6, &[0, 1, 2])
-    );
+    harness::measure(["V", "S", "L"], iters, |iters, [v, s, l]| unsafe {
+        run(iters, v, s, l, buf.as_mut_ptr())
+    });
 }

@@ -8,12 +8,13 @@
 //! Each loop iteration issues, in inline assembly so the compiler changes nothing: A = 16
 //! independent `vaddps zmm`; D = 2 independent `vdivps zmm`; G = 1 `vgatherdps zmm` of 16 lanes
 //! from one L1-resident line pair (its mask set first, as a gather clears it). Every class alone
-//! and every mix is timed (the best of 5 runs, 9 rounds, the median round), in cycles of a nominal
-//! 2.1 GHz clock. `alpha` is `(mix - largest part) / (sum of parts - largest part)`: 0 when the
+//! and every mix is timed by `overlap_harness.rs` (the best of 5 runs, 9 rounds, the median
+//! round), in cycles of a nominal 2.1 GHz clock. `alpha` is `(mix - largest part) / (sum of parts - largest part)`: 0 when the
 //! classes overlap completely, 1 when they add up (the model's rule today).
 
 use std::arch::asm;
-use std::time::Instant;
+#[path = "overlap_harness.rs"]
+mod harness;
 
 /// `iters` iterations of the chosen classes; `table` holds at least 32 f32, 64-byte aligned.
 #[inline(never)]
@@ -68,55 +69,7 @@ fn main() {
     struct Table([f32; 32]);
     let table = Table([1.0; 32]);
     let iters = 10_000_000u64;
-    let cases = [
-        ("A", true, false, false),
-        ("D", false, true, false),
-        ("G", false, false, true),
-        ("A+D", true, true, false),
-        ("A+G", true, false, true),
-        ("D+G", false, true, true),
-        ("A+D+G", true, true, true),
-    ];
-    let mut rounds: Vec<Vec<f64>> = Vec::new();
-    for _round in 0..9 {
-        let mut line = String::new();
-        let mut row = Vec::new();
-        for &(name, a, d, g) in &cases {
-            let mut best = f64::MAX;
-            for _ in 0..5 {
-                let t = Instant::now();
-                unsafe { run(iters, a, d, g, table.0.as_ptr()) };
-                best = best.min(t.elapsed().as_secs_f64());
-            }
-            let cycles = best / iters as f64 * 2.1e9;
-            row.push(cycles);
-            line += &format!("{name}: {cycles:.2} cyc  ");
-        }
-        println!("{line}");
-        rounds.push(row);
-    }
-    let median = |k: usize| {
-        let mut v: Vec<f64> = rounds.iter().map(|r| r[k]).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let m: Vec<f64> = (0..cases.len()).map(median).collect();
-    let alpha = |mix: usize, parts: &[usize]| {
-        let largest = parts.iter().map(|&p| m[p]).fold(0.0, f64::max);
-        let sum: f64 = parts.iter().map(|&p| m[p]).sum();
-        (m[mix] - largest) / (sum - largest)
-    };
-    let names: Vec<String> = cases
-        .iter()
-        .zip(&m)
-        .map(|(c, v)| format!("{} {v:.2}", c.0))
-        .collect();
-    println!("median round: {}", names.join(", "));
-    println!(
-        "alpha: A+D {:.2}, A+G {:.2}, D+G {:.2}, A+D+G {:.2}",
-        alpha(3, &[0, 1]),
-        alpha(4, &[0, 2]),
-        alpha(5, &[1, 2]),
-        alpha(6, &[0, 1, 2])
-    );
+    harness::measure(["A", "D", "G"], iters, |iters, [a, d, g]| unsafe {
+        run(iters, a, d, g, table.0.as_ptr())
+    });
 }
