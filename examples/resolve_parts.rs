@@ -17,6 +17,7 @@
 //! `sism calibrate` file of this host). Measured on the Intel Xeon VM (ARCHITECTURE.md, "The eye
 //! resolve's lane loop"): the lane loop adds to the vector part instead of hiding under it.
 use sism::frame::Receiver;
+use sism::sampling::Rng;
 use sism_simd::{Kernel, Recorder, Simd};
 use std::hint::black_box;
 
@@ -225,28 +226,21 @@ fn write<T>(slot: &mut T, v: T) -> &T {
     slot
 }
 
-/// xorshift64.
-fn next(state: &mut u64) -> u64 {
-    *state ^= *state << 13;
-    *state ^= *state >> 7;
-    *state ^= *state << 17;
-    *state
-}
-
-fn unit(state: &mut u64) -> f32 {
-    (next(state) % 1_000_000) as f32 / 1_000_000.0
+/// A random list position below `n` (the project's deterministic generator).
+fn below(rng: &mut Rng, n: usize) -> i32 {
+    ((rng.next_f32() * n as f32) as usize).min(n - 1) as i32
 }
 
 /// 16 tiles; `silhouettes`: twelve discs of one triangle each over every tile, else every pixel a
 /// random triangle's.
 fn inputs(silhouettes: bool) -> Inputs {
     let triangles: usize = 4096;
-    let mut st = 0x1234_5678_9abc_def0u64;
+    let mut rng = Rng::new(0x1234_5678, 0);
     let table = Table {
-        nx: (0..triangles).map(|_| unit(&mut st) - 0.5).collect(),
-        ny: (0..triangles).map(|_| unit(&mut st) - 0.5).collect(),
-        nz: (0..triangles).map(|_| unit(&mut st) + 0.1).collect(),
-        plane_dist: (0..triangles).map(|_| unit(&mut st) * 10.0).collect(),
+        nx: (0..triangles).map(|_| rng.next_f32() - 0.5).collect(),
+        ny: (0..triangles).map(|_| rng.next_f32() - 0.5).collect(),
+        nz: (0..triangles).map(|_| rng.next_f32() + 0.1).collect(),
+        plane_dist: (0..triangles).map(|_| rng.next_f32() * 10.0).collect(),
         original: (0..triangles as i32).collect(),
     };
     let (mut ids, mut inv_z) = (vec![], vec![]);
@@ -256,19 +250,19 @@ fn inputs(silhouettes: bool) -> Inputs {
         let discs: Vec<(f32, f32, f32, i32)> = (0..12)
             .map(|_| {
                 let (x, y, r) = (
-                    unit(&mut st) * 64.0,
-                    unit(&mut st) * 64.0,
-                    4.0 + unit(&mut st) * 14.0,
+                    rng.next_f32() * 64.0,
+                    rng.next_f32() * 64.0,
+                    4.0 + rng.next_f32() * 14.0,
                 );
-                (x, y, r, (next(&mut st) % triangles as u64) as i32)
+                (x, y, r, below(&mut rng, triangles))
             })
             .collect();
         for y in 0..TILE {
             for x in 0..TILE {
                 let k = ((y / 4) * (TILE / 4) + x / 4) * 16 + (y % 4) * 4 + x % 4;
-                z[k] = 0.1 + unit(&mut st);
+                z[k] = 0.1 + rng.next_f32();
                 if !silhouettes {
-                    id[k] = (next(&mut st) % triangles as u64) as i32;
+                    id[k] = below(&mut rng, triangles);
                     continue;
                 }
                 for &(cx, cy, r, t) in &discs {
