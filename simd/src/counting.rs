@@ -46,6 +46,11 @@ struct State {
     predictor: crate::branch::BranchPredictor,
     /// The host thread's stack as the kernels see it ([`Recorder::mark_stack`]).
     stack: StackLines,
+    /// The counters at the start of the current stretch of [`WINDOW`] counted operations
+    /// ([`Counters::window_issue`]).
+    stretch_start: Counters,
+    /// Counted operations in the current stretch.
+    stretch_ops: usize,
 }
 
 /// Bytes below a counting run's stack mark whose lines are the kernel's own stack
@@ -188,6 +193,46 @@ impl State {
         depth
     }
 
+    /// Counts `n` operations into the current stretch; a full stretch ([`WINDOW`] operations)
+    /// adds its nominal issue bound to [`Counters::window_issue`].
+    #[inline(always)]
+    fn tick(&mut self, n: usize) {
+        self.stretch_ops += n;
+        if self.stretch_ops >= WINDOW {
+            self.close_stretch();
+        }
+    }
+
+    /// Ends the current stretch: its operations' nominal issue bound joins the task's
+    /// [`Counters::window_issue`].
+    #[cold]
+    fn close_stretch(&mut self) {
+        let (a, b) = (&self.stretch_start, &self.c);
+        // The stretch's own operations: the counters' growth since it began.
+        let d = Counters {
+            valu: b.valu - a.valu,
+            fma: b.fma - a.fma,
+            transcendental: b.transcendental - a.transcendental,
+            mask: b.mask - a.mask,
+            scalar: b.scalar - a.scalar,
+            scalar_alu: b.scalar_alu - a.scalar_alu,
+            scalar_float: b.scalar_float - a.scalar_float,
+            scalar_div: b.scalar_div - a.scalar_div,
+            scalar_branch: b.scalar_branch - a.scalar_branch,
+            scalar_mem: b.scalar_mem - a.scalar_mem,
+            load: b.load - a.load,
+            store: b.store - a.store,
+            gather: b.gather - a.gather,
+            scatter: b.scatter - a.scatter,
+            compress_expand: b.compress_expand - a.compress_expand,
+            mask_moves: b.mask_moves - a.mask_moves,
+            ..Counters::default()
+        };
+        self.c.window_issue += crate::record::nominal_issue(&d);
+        self.stretch_start = self.c;
+        self.stretch_ops = 0;
+    }
+
     /// Appends `line` to the task's stream.
     #[inline(always)]
     fn push_line(&mut self, line: u64, write: bool) {
@@ -224,6 +269,8 @@ impl Recorder {
                 retired: 0,
                 issued: 0,
                 stack: StackLines::default(),
+                stretch_start: Counters::default(),
+                stretch_ops: 0,
             }),
         }
     }
@@ -291,6 +338,11 @@ impl Recorder {
 }
 
 fn take(st: &mut State) -> TaskRecord {
+    // The task's last, partial stretch of operations.
+    if st.stretch_ops > 0 {
+        st.close_stretch();
+    }
+    st.stretch_start = Counters::default();
     // The task's longest chain; the next task's chains start above every value made so far.
     st.c.critical_path = st.top;
     st.start_epoch();
@@ -490,13 +542,17 @@ impl<'r, B: Simd> Counting<'r, B> {
             c.vector_ops += 1;
             c.active_lanes += lanes as u64;
             c.masked_ops += masked as u64;
+            st.tick(1);
             let depth = st.issue(st.local(inputs), latency);
             st.tagged(depth)
         })
     }
     #[inline(always)]
     fn mask_op(self) {
-        self.rec.with(|st| st.c.mask += 1)
+        self.rec.with(|st| {
+            st.c.mask += 1;
+            st.tick(1);
+        })
     }
     /// One instruction moving between lanes and a mask ([`Counters::mask_moves`]), besides its
     /// own class's count.
@@ -510,6 +566,7 @@ impl<'r, B: Simd> Counting<'r, B> {
             st.c.valu += 4;
             st.c.vector_ops += 4;
             st.c.active_lanes += 64;
+            st.tick(4);
             st.top = st.top.max(st.local(input) + latency::REDUCE);
         })
     }
@@ -1072,16 +1129,22 @@ impl<B: Simd> Simd for Counting<'_, B> {
     }
     #[inline(always)]
     fn scalar_ops(self, n: u64) {
-        self.rec.with(|st| st.c.scalar += n)
+        self.rec.with(|st| {
+            st.c.scalar += n;
+            st.tick(n.min(WINDOW as u64) as usize);
+        })
     }
     #[inline(always)]
     fn scalar_op(self, class: crate::ScalarClass) {
-        self.rec.with(|st| match class {
-            crate::ScalarClass::Alu => st.c.scalar_alu += 1,
-            crate::ScalarClass::Float => st.c.scalar_float += 1,
-            crate::ScalarClass::Div => st.c.scalar_div += 1,
-            crate::ScalarClass::Branch => st.c.scalar_branch += 1,
-            crate::ScalarClass::Mem => st.c.scalar_mem += 1,
+        self.rec.with(|st| {
+            match class {
+                crate::ScalarClass::Alu => st.c.scalar_alu += 1,
+                crate::ScalarClass::Float => st.c.scalar_float += 1,
+                crate::ScalarClass::Div => st.c.scalar_div += 1,
+                crate::ScalarClass::Branch => st.c.scalar_branch += 1,
+                crate::ScalarClass::Mem => st.c.scalar_mem += 1,
+            }
+            st.tick(1);
         })
     }
     #[inline(always)]

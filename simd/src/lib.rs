@@ -104,7 +104,8 @@ pub use dispatch::{
 pub use mask::{Mask16, MaskIter};
 pub use portable::{F32x16, I32x16, Portable};
 pub use record::{
-    Counters, DecodeError, LineIter, LineStream, LineStreamEncoder, TaskRecord, NO_TASK, TASK_RECORD_VERSION,
+    nominal_issue, Counters, DecodeError, LineIter, LineStream, LineStreamEncoder, TaskRecord, NO_TASK,
+    TASK_RECORD_VERSION,
 };
 pub use simd::{
     scalar_latency, BackendKind, ChainKey, ScalarClass, ScalarNum, Simd, ACOS_MAX_ABS_ERR, ACOS_MAX_REL_ERR,

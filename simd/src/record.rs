@@ -116,6 +116,14 @@ counters! {
     /// Counted conditional branches (`s_branch`, `s_lt`, `s_le`) that the counting context's
     /// branch predictor model ([`crate::branch`]) mispredicted: an event, not an instruction.
     branch_mispredicts,
+    /// The task's issue as an out-of-order window sees it: the sum, over the task's stretches of
+    /// [`crate::WINDOW`] counted operations, of each stretch's nominal issue bound
+    /// ([`nominal_issue`]), in eighths of a nominal cycle. A task whose classes of work interleave
+    /// evenly gets its whole counters' bound; one that does its scalar work and its vector work in
+    /// separate stretches (a triangle's setup, then its blocks) gets up to their sum, because a
+    /// window cannot overlap work that lies further apart than it reaches. Summed when records are
+    /// merged.
+    window_issue,
 }
 
 impl Counters {
@@ -149,6 +157,37 @@ impl Counters {
     }
 }
 
+/// The nominal issue bound of `c`'s operations on an out-of-order core, in eighths of a cycle:
+/// the largest of its port groups' busy times at nominal reciprocal throughputs (the vector unit's
+/// two pipes, its compress, transcendental and gather sequences; two load/store ports; about three
+/// scalar ALUs; the scalar divider), the constants of the host calibrations (`sism calibrate` on
+/// Zen 4 and Emerald Rapids VMs fits 0.44 cycles a vector operation, 0.51 a load or store, 0.37 a
+/// scalar one, 2.3 a scalar divide, 6 a compress, 9 a gather). Only ratios of these bounds are
+/// used ([`Counters::window_issue`] against the bound of the task's whole counters), so the
+/// constants classify stretches of work by the port group they keep busy; they are not a
+/// machine's costs.
+pub fn nominal_issue(c: &Counters) -> u64 {
+    // In u128: counters of a loaded (untrusted) records file may be anything; the bound saturates.
+    let w = |n: u64, k: u128| n as u128 * k;
+    let vector = w(c.valu, 4)
+        + w(c.fma, 4)
+        + w(c.mask_moves, 2)
+        + w(c.scalar_float, 2)
+        + w(c.compress_expand, 48)
+        + w(c.transcendental, 64)
+        + w(c.gather, 72)
+        + w(c.scatter, 72);
+    let load_store = w(c.load, 4) + w(c.store, 4) + w(c.scalar_mem, 4);
+    let scalar =
+        w(c.scalar, 3) + w(c.mask, 3) + w(c.scalar_alu, 3) + w(c.scalar_float, 3) + w(c.scalar_branch, 3);
+    let divider = w(c.scalar_div, 18);
+    vector
+        .max(load_store)
+        .max(scalar)
+        .max(divider)
+        .min(u64::MAX as u128) as u64
+}
+
 /// Kind id of work recorded outside any `begin_task` / `end_task` pair.
 pub const NO_TASK: u32 = u32::MAX;
 
@@ -178,8 +217,9 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 
 const MAGIC: u8 = 0x5A;
 /// The task record format's version ([`TaskRecord::to_bytes`]'s second byte). 2: `critical_path`
-/// and the counted scalar classes; 3: `branch_mispredicts`; 4: `scalar_float`; 5: `mask_moves`.
-pub const TASK_RECORD_VERSION: u8 = 5;
+/// and the counted scalar classes; 3: `branch_mispredicts`; 4: `scalar_float`; 5: `mask_moves`;
+/// 6: `window_issue`.
+pub const TASK_RECORD_VERSION: u8 = 6;
 const VERSION: u8 = TASK_RECORD_VERSION;
 
 impl TaskRecord {

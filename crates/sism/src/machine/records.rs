@@ -4,8 +4,8 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 7 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
-//! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state):
+//! Format, version 8 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
+//! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state; 8: `window_issue`):
 //!
 //! | bytes | what |
 //! |---|---|
@@ -36,7 +36,7 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 7;
+pub const VERSION: u32 = 8;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Step flag bit: the host ran the step's tasks serially.

@@ -258,16 +258,22 @@ pub struct PortBounds {
     pub chain: f64,
     /// The mispredicted branches ([`mispredict_cycles`]), added: nothing overlaps a refill.
     pub mispredict: f64,
+    /// How much less than perfectly the task's port groups overlap, ≥ 1: its windowed nominal
+    /// issue ([`sism_simd::Counters::window_issue`]) over the nominal bound of its whole counters
+    /// ([`sism_simd::nominal_issue`]). 1 when the classes of work interleave within the window;
+    /// up to the number of port groups when they come in stretches the window cannot bridge. The
+    /// largest port bound is scaled by it.
+    pub window: f64,
 }
 
 impl PortBounds {
     /// The task's issue cycles: the largest bound, plus the mispredicts.
     pub fn issue(&self) -> f64 {
-        self.vector
+        let ports = self
+            .vector
             .max(self.load_store)
-            .max(self.scalar.max(self.divider))
-            .max(self.chain)
-            + self.mispredict
+            .max(self.scalar.max(self.divider));
+        (ports * self.window).max(self.chain) + self.mispredict
     }
 }
 
@@ -291,7 +297,19 @@ pub fn port_bounds(c: &Counters, m: &MachineConfig) -> PortBounds {
         divider: k.scalar_div.ceil(),
         chain: chain_cycles(c, m) as f64,
         mispredict: mispredict_cycles(c, m) as f64,
+        window: window_factor(c),
     }
+}
+
+/// [`PortBounds::window`] of a task's counters: `window_issue / nominal_issue`, at least 1 (and 1
+/// for records without windows), at most 4 (the port groups: a stretch's bound never exceeds
+/// their sum, so a larger ratio is a corrupt record).
+pub fn window_factor(c: &Counters) -> f64 {
+    let whole = sism_simd::nominal_issue(c);
+    if whole == 0 || c.window_issue == 0 {
+        return 1.0;
+    }
+    (c.window_issue as f64 / whole as f64).clamp(1.0, 4.0)
 }
 
 /// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
