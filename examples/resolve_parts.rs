@@ -198,13 +198,15 @@ impl Kernel for Resolve<'_> {
                                     normal: glam::Vec3::new(0.0, 0.0, 1.0),
                                 }
                             } else {
+                                // Counted as `write_receivers` counts it: six lane reads.
+                                let lane = |a: &[f32; 16]| s.s_load(a, k);
                                 Receiver {
-                                    position: glam::Vec3::new(pos[0][k], pos[1][k], pos[2][k]),
-                                    normal: glam::Vec3::new(nrm[0][k], nrm[1][k], nrm[2][k]),
+                                    position: glam::Vec3::new(lane(&pos[0]), lane(&pos[1]), lane(&pos[2])),
+                                    normal: glam::Vec3::new(lane(&nrm[0]), lane(&nrm[1]), lane(&nrm[2])),
                                 }
                             };
-                            s.s_wrote(write(&mut self.pixels[i], Some(value)));
-                            s.s_wrote(write(&mut self.triangles[i], original[k] as u32));
+                            s.s_wrote_words(write(&mut self.pixels[i], Some(value)));
+                            s.s_wrote(write(&mut self.triangles[i], s.s_load(&original, k) as u32));
                             covered += 1;
                         } else {
                             s.s_wrote(write(&mut self.pixels[i], None));

@@ -2,7 +2,7 @@
 //! against that run's measured host figures: a model change is checked on every scene, algorithm
 //! and thread count in seconds, instead of a half-hour validation whose host moment differs.
 //!
-//! `cargo run --release --example revalidate -- VALIDATE_DIR [RECORDS_CACHE]`
+//! `cargo run --release --example revalidate -- VALIDATE_DIR [RECORDS_CACHE] [KEY=VALUE ...]`
 //!
 //! `VALIDATE_DIR` holds `validate.csv` and, per scene, the machine file it was predicted with
 //! (`calibration-K-SCENE.toml` from `--calibrate-per-scene`; else `machine.toml`). Each scene and
@@ -10,7 +10,8 @@
 //! `samples_per_side=4`, as the validation runs it), its records kept in `RECORDS_CACHE`
 //! (default `out/revalidate-records`; delete a file after a kernel's counting changes). Prints each
 //! scored figure (major phases and frames, the CSV's own major flags) old and new, then both
-//! summaries.
+//! summaries. `KEY=VALUE` sets a machine parameter the validation's files do not state (one added
+//! to the model since), in every scene's file.
 //!
 //! Only the model is new here: the host figures are the validation's, so this measures what a
 //! change to the model (its rules, not its calibration) does. A fitted constant is still fitted on
@@ -130,7 +131,17 @@ fn main() {
             save_records(&file, &c).expect("save records");
             c
         });
-        let base = MachineConfig::load(&machine_file(&dir, scene), None).expect("machine file");
+        let base = {
+            let path = machine_file(&dir, scene);
+            let mut text = std::fs::read_to_string(&path).expect("machine file");
+            for kv in args.iter().skip(3) {
+                let (k, v) = kv.split_once('=').expect("KEY=VALUE");
+                text.push_str(&format!("\n{k} = {v}\n"));
+            }
+            let with = cache.join("machine.toml");
+            std::fs::write(&with, text).expect("write machine file");
+            MachineConfig::load(&with, None).expect("machine file")
+        };
         let configs: Vec<MachineConfig> = threads
             .iter()
             .map(|&t| {

@@ -691,6 +691,17 @@ pub trait Simd: Copy {
         self.scalar_op(ScalarClass::Mem);
         self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
     }
+    /// Count the stores of a value `*r` just written that was assembled from 32-bit scalars (lanes
+    /// taken out of vectors one by one, fields computed apart): the compiler stores such a value a
+    /// word at a time, so it counts one [`ScalarClass::Mem`] per 4 bytes (at least one), and its
+    /// lines once.
+    #[inline(always)]
+    fn s_wrote_words<T>(self, r: &T) {
+        for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
+            self.scalar_op(ScalarClass::Mem);
+        }
+        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
+    }
     /// Scalar store `data[i] = v` ([`ScalarClass::Mem`], its line in the stream).
     #[inline(always)]
     fn s_store<T>(self, data: &mut [T], i: usize, v: T) {

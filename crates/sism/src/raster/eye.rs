@@ -221,11 +221,22 @@ fn write_receivers<S: Simd>(s: S, tile: &TileRaster<'_>, out: EyeTileOut<'_>) ->
                         &mut triangles[row][bx as usize + c],
                     );
                     if s.s_branch(hit.test(k)) {
-                        s.s_wrote(px.write(Some(Receiver {
-                            position: Vec3::new(pos[0][k], pos[1][k], pos[2][k]),
-                            normal: Vec3::new(nrm[0][k], nrm[1][k], nrm[2][k]),
+                        // Counted as executed: six lanes read back from the spilled vectors, the
+                        // receiver stored a field at a time (its tag and six floats), the
+                        // triangle's lane read and stored.
+                        s.s_wrote_words(px.write(Some(Receiver {
+                            position: Vec3::new(
+                                s.s_load(&pos[0], k),
+                                s.s_load(&pos[1], k),
+                                s.s_load(&pos[2], k),
+                            ),
+                            normal: Vec3::new(
+                                s.s_load(&nrm[0], k),
+                                s.s_load(&nrm[1], k),
+                                s.s_load(&nrm[2], k),
+                            ),
                         })));
-                        s.s_wrote(tri.write(original[k] as u32));
+                        s.s_wrote(tri.write(s.s_load(&original, k) as u32));
                         covered += 1;
                     } else {
                         s.s_wrote(px.write(None));
