@@ -691,6 +691,27 @@ pub trait Simd: Copy {
         self.scalar_op(ScalarClass::Mem);
         self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
     }
+    /// Scalar read of a value `*r` of several 32-bit fields the kernel goes on to use one by one
+    /// (a triangle's corners, a screen triangle's setup): the host loads it a field at a time, so
+    /// it counts one [`ScalarClass::Mem`] per 4 bytes (at least one), and its lines once.
+    #[inline(always)]
+    fn s_read_words<T: Copy>(self, r: &T) -> T {
+        for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
+            self.scalar_op(ScalarClass::Mem);
+        }
+        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), false);
+        *r
+    }
+    /// `v.push(x)` of a value assembled from 32-bit scalars: [`Simd::s_push`], its store counted a
+    /// word at a time as [`Simd::s_wrote_words`] counts one.
+    #[inline(always)]
+    fn s_push_words<T>(self, v: &mut Vec<T>, x: T) {
+        self.scalar_op(ScalarClass::Branch);
+        self.scalar_op(ScalarClass::Alu);
+        v.push(x);
+        let last = v.last().expect("just pushed");
+        self.s_wrote_words(last);
+    }
     /// Count the stores of a value `*r` just written that was assembled from 32-bit scalars (lanes
     /// taken out of vectors one by one, fields computed apart): the compiler stores such a value a
     /// word at a time, so it counts one [`ScalarClass::Mem`] per 4 bytes (at least one), and its

@@ -522,7 +522,8 @@ impl FrontEnd {
     fn bin<S: Simd>(&self, s: S, t: ScreenTri, out: &mut FrontOut) {
         let index = out.tris.len() as u32;
         let [x0, y0, x1, y1] = t.bbox;
-        s.s_push(&mut out.tris, t);
+        // Its fields were computed apart: stored a word at a time.
+        s.s_push_words(&mut out.tris, t);
         for ty in y0 / TILE..=y1 / TILE {
             for tx in x0 / TILE..=x1 / TILE {
                 s.s_push(&mut out.pairs, (s.s_add(s.s_mul(ty, self.tiles_x), tx), index));
@@ -1042,7 +1043,7 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
         for slot in 0..self.list.len() {
             // The list entry and the triangle it names (its lines in the task's stream).
             let t = self.tris.get(s.s_load(self.list, slot));
-            let t = &s.s_read(t);
+            let t = &s.s_read_words(t);
             let (edges, [gx, gy, gd, z_lo, z_hi]) = tile_setup(s, t, ox as f64, oy as f64);
             table.push(s, t, gx, gy);
             // Bounding box ∩ tile, tile-local inclusive pixels.

@@ -215,7 +215,7 @@ impl SceneTopology {
         if !s.s_branch(s.s_load(&self.closed, t)) {
             return true;
         }
-        let tri = s.s_read(&self.triangles[t]);
+        let tri = s.s_read_words(&self.triangles[t]);
         let n = cross(s, sub(s, tri[1], tri[0]), sub(s, tri[2], tri[0]));
         s.s_lt(0.0, dot(s, n, sub(s, c, tri[0])))
     }

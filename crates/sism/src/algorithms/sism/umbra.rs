@@ -135,7 +135,7 @@ impl BinItems for TriangleBinner<'_> {
         }
         counts.counted += 1;
         let q = s
-            .s_read(&self.topo.triangles[t as usize])
+            .s_read_words(&self.topo.triangles[t as usize])
             .map(|v| counted::sub(s, v, self.light_center));
         for g in &grid.faces {
             if !s.s_lt(0, s.s_read(&g.samples)) {
@@ -353,7 +353,7 @@ impl Kernel for UmbraBin<'_> {
         for k in 0..self.triangles.len() {
             let t = s.s_load(self.triangles, k);
             let q = s
-                .s_read(&self.topo.triangles[t as usize])
+                .s_read_words(&self.topo.triangles[t as usize])
                 .map(|v| counted::sub(s, v, self.light_center));
             let Some(tri) = triangle_in_bin(s, grid, self.bin, &q) else {
                 continue;
