@@ -207,27 +207,8 @@ impl State {
     /// [`Counters::window_issue`].
     #[cold]
     fn close_stretch(&mut self) {
-        let (a, b) = (&self.stretch_start, &self.c);
         // The stretch's own operations: the counters' growth since it began.
-        let d = Counters {
-            valu: b.valu - a.valu,
-            fma: b.fma - a.fma,
-            transcendental: b.transcendental - a.transcendental,
-            mask: b.mask - a.mask,
-            scalar: b.scalar - a.scalar,
-            scalar_alu: b.scalar_alu - a.scalar_alu,
-            scalar_float: b.scalar_float - a.scalar_float,
-            scalar_div: b.scalar_div - a.scalar_div,
-            scalar_branch: b.scalar_branch - a.scalar_branch,
-            scalar_mem: b.scalar_mem - a.scalar_mem,
-            load: b.load - a.load,
-            store: b.store - a.store,
-            gather: b.gather - a.gather,
-            scatter: b.scatter - a.scatter,
-            compress_expand: b.compress_expand - a.compress_expand,
-            mask_moves: b.mask_moves - a.mask_moves,
-            ..Counters::default()
-        };
+        let d = self.c.since(&self.stretch_start);
         self.c.window_issue += crate::record::nominal_issue(&d);
         self.stretch_start = self.c;
         self.stretch_ops = 0;

@@ -29,6 +29,12 @@ macro_rules! counters {
             /// Field names, in serialisation order.
             pub const FIELDS: &'static [&'static str] = &[$( stringify!($field) ),*];
 
+            /// What each counter grew by since `earlier`, a snapshot of the same task's counters
+            /// (every field of `self` at least `earlier`'s).
+            pub fn since(&self, earlier: &Counters) -> Counters {
+                Counters { $( $field: self.$field - earlier.$field, )* }
+            }
+
             /// Field values, in [`Counters::FIELDS`] order.
             pub fn values(&self) -> Vec<u64> {
                 vec![$( self.$field ),*]

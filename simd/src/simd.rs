@@ -137,6 +137,16 @@ macro_rules! scalar_num {
 scalar_num!(Float: f32, f64);
 scalar_num!(Alu: i32, u32, i64, u64, usize);
 
+/// [`Simd::s_read_words`] and [`Simd::s_wrote_words`]: one [`ScalarClass::Mem`] per 4 bytes of
+/// `*r` (at least one), and its lines once, read or written.
+#[inline(always)]
+fn count_words<S: Simd, T>(s: S, r: &T, write: bool) {
+    for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
+        s.scalar_op(ScalarClass::Mem);
+    }
+    s.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), write);
+}
+
 /// The 16-wide vector instruction set, in the style of Larrabee's LRBni.
 ///
 /// A *context* `S: Simd` is a zero-sized (or pointer-sized, for counting)
@@ -696,10 +706,7 @@ pub trait Simd: Copy {
     /// it counts one [`ScalarClass::Mem`] per 4 bytes (at least one), and its lines once.
     #[inline(always)]
     fn s_read_words<T: Copy>(self, r: &T) -> T {
-        for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
-            self.scalar_op(ScalarClass::Mem);
-        }
-        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), false);
+        count_words(self, r, false);
         *r
     }
     /// `v.push(x)` of a value assembled from 32-bit scalars: [`Simd::s_push`], its store counted a
@@ -718,10 +725,7 @@ pub trait Simd: Copy {
     /// lines once.
     #[inline(always)]
     fn s_wrote_words<T>(self, r: &T) {
-        for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
-            self.scalar_op(ScalarClass::Mem);
-        }
-        self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
+        count_words(self, r, true);
     }
     /// Scalar store `data[i] = v` ([`ScalarClass::Mem`], its line in the stream).
     #[inline(always)]
