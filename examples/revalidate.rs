@@ -144,14 +144,7 @@ fn main() {
         };
         let configs: Vec<MachineConfig> = threads
             .iter()
-            .map(|&t| {
-                // As `validate`: `t` host threads on cores of the model's SMT threads.
-                let mut c = base.clone();
-                let smt = base.threads_per_core.max(1);
-                c.cores = t.div_ceil(smt);
-                c.threads_per_core = smt.min(t);
-                c
-            })
+            .map(|&t| sism::host::validate::model_for_threads(&base, t).expect("the model on t threads"))
             .collect();
         let reports = sism::machine::sweep::run(&records, &configs, || ());
         for (&t, point) in threads.iter().zip(&reports) {

@@ -107,18 +107,10 @@ pub fn validate(
     );
     let records = std::mem::take(&mut counted.records);
     drop(counted);
-    let mut configs = Vec::with_capacity(threads.len());
-    for &t in threads {
-        let mut config = model.clone();
-        // `t` host threads on cores of the model's `threads_per_core` SMT threads.
-        let smt = model.threads_per_core.max(1);
-        config.cores = t.div_ceil(smt);
-        config.threads_per_core = smt.min(t);
-        config
-            .validate()
-            .map_err(|(k, e)| crate::Error::invalid(format!("the model with {t} cores: `{k}` {e}")))?;
-        configs.push(config);
-    }
+    let configs = threads
+        .iter()
+        .map(|&t| model_for_threads(model, t))
+        .collect::<crate::Result<Vec<_>>>()?;
     // One replay per thread count, the records' lines decoded once for all of them.
     let reports = machine::sweep::run(&records, &configs, || ());
     let mut rows = Vec::new();
@@ -225,6 +217,19 @@ pub fn validate(
         }
     }
     Ok(rows)
+}
+
+/// `model` as the host run on `t` threads: `t` threads on cores of the model's `threads_per_core`
+/// SMT threads (what [`validate`] predicts each thread count with).
+pub fn model_for_threads(model: &MachineConfig, t: u32) -> crate::Result<MachineConfig> {
+    let mut config = model.clone();
+    let smt = model.threads_per_core.max(1);
+    config.cores = t.div_ceil(smt);
+    config.threads_per_core = smt.min(t);
+    config
+        .validate()
+        .map_err(|(k, e)| crate::Error::invalid(format!("the model with {t} cores: `{k}` {e}")))?;
+    Ok(config)
 }
 
 /// One native frame's stats (its `time.*` rows, ms) and the order of its phases and steps.
