@@ -4,6 +4,23 @@
 
 use std::time::Instant;
 
+/// Sixteen independent 16-lane `vaddps` (zmm0..zmm7, twice), the vector-ALU class both scripts
+/// issue. The sources are zeroed first (zero idioms: no port), so no denormal ever slows an add.
+/// Expands to an `asm!` block: use it inside `unsafe`.
+macro_rules! vector_adds {
+    () => {
+        std::arch::asm!(
+            "vxorps zmm8, zmm8, zmm8",
+            "vxorps zmm9, zmm9, zmm9",
+            "vaddps zmm0, zmm8, zmm9", "vaddps zmm1, zmm8, zmm9", "vaddps zmm2, zmm8, zmm9", "vaddps zmm3, zmm8, zmm9",
+            "vaddps zmm4, zmm8, zmm9", "vaddps zmm5, zmm8, zmm9", "vaddps zmm6, zmm8, zmm9", "vaddps zmm7, zmm8, zmm9",
+            "vaddps zmm0, zmm9, zmm8", "vaddps zmm1, zmm9, zmm8", "vaddps zmm2, zmm9, zmm8", "vaddps zmm3, zmm9, zmm8",
+            "vaddps zmm4, zmm9, zmm8", "vaddps zmm5, zmm9, zmm8", "vaddps zmm6, zmm9, zmm8", "vaddps zmm7, zmm9, zmm8",
+            out("zmm0") _, out("zmm1") _, out("zmm2") _, out("zmm3") _, out("zmm4") _, out("zmm5") _, out("zmm6") _, out("zmm7") _, out("zmm8") _, out("zmm9") _,
+            options(nostack));
+    };
+}
+
 /// Times the seven mixes of `classes` (each alone, each pair, all three; named `A`, `A+B`, ...):
 /// `run(iters, on)` runs `iters` loop iterations issuing the classes `on` selects. Each mix is the
 /// best of 5 runs, in cycles of an iteration at a nominal 2.1 GHz clock (a turbo clock makes them

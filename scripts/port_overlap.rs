@@ -21,6 +21,7 @@
 
 use std::arch::asm;
 #[path = "overlap_harness.rs"]
+#[macro_use]
 mod harness;
 
 /// `iters` iterations of the chosen classes (see the module's docs); `buf` holds at least 12 u64.
@@ -28,16 +29,7 @@ mod harness;
 unsafe fn run(iters: u64, v: bool, s: bool, l: bool, buf: *mut u64) {
     for _ in 0..iters {
         if v {
-            // The sources are zeroed first (zero idioms: no port), so no denormal ever slows an add.
-            asm!(
-                "vxorps zmm8, zmm8, zmm8",
-                "vxorps zmm9, zmm9, zmm9",
-                "vaddps zmm0, zmm8, zmm9", "vaddps zmm1, zmm8, zmm9", "vaddps zmm2, zmm8, zmm9", "vaddps zmm3, zmm8, zmm9",
-                "vaddps zmm4, zmm8, zmm9", "vaddps zmm5, zmm8, zmm9", "vaddps zmm6, zmm8, zmm9", "vaddps zmm7, zmm8, zmm9",
-                "vaddps zmm0, zmm9, zmm8", "vaddps zmm1, zmm9, zmm8", "vaddps zmm2, zmm9, zmm8", "vaddps zmm3, zmm9, zmm8",
-                "vaddps zmm4, zmm9, zmm8", "vaddps zmm5, zmm9, zmm8", "vaddps zmm6, zmm9, zmm8", "vaddps zmm7, zmm9, zmm8",
-                out("zmm0") _, out("zmm1") _, out("zmm2") _, out("zmm3") _, out("zmm4") _, out("zmm5") _, out("zmm6") _, out("zmm7") _, out("zmm8") _, out("zmm9") _,
-                options(nostack));
+            vector_adds!();
         }
         if s {
             asm!(

@@ -14,6 +14,7 @@
 
 use std::arch::asm;
 #[path = "overlap_harness.rs"]
+#[macro_use]
 mod harness;
 
 /// `iters` iterations of the chosen classes; `table` holds at least 32 f32, 64-byte aligned.
@@ -31,15 +32,7 @@ unsafe fn run(iters: u64, a: bool, d: bool, g: bool, table: *const f32) {
         options(nostack, readonly));
     for _ in 0..iters {
         if a {
-            asm!(
-                "vxorps zmm8, zmm8, zmm8",
-                "vxorps zmm9, zmm9, zmm9",
-                "vaddps zmm0, zmm8, zmm9", "vaddps zmm1, zmm8, zmm9", "vaddps zmm2, zmm8, zmm9", "vaddps zmm3, zmm8, zmm9",
-                "vaddps zmm4, zmm8, zmm9", "vaddps zmm5, zmm8, zmm9", "vaddps zmm6, zmm8, zmm9", "vaddps zmm7, zmm8, zmm9",
-                "vaddps zmm0, zmm9, zmm8", "vaddps zmm1, zmm9, zmm8", "vaddps zmm2, zmm9, zmm8", "vaddps zmm3, zmm9, zmm8",
-                "vaddps zmm4, zmm9, zmm8", "vaddps zmm5, zmm9, zmm8", "vaddps zmm6, zmm9, zmm8", "vaddps zmm7, zmm9, zmm8",
-                out("zmm0") _, out("zmm1") _, out("zmm2") _, out("zmm3") _, out("zmm4") _, out("zmm5") _, out("zmm6") _, out("zmm7") _, out("zmm8") _, out("zmm9") _,
-                options(nostack));
+            vector_adds!();
         }
         if d {
             // Independent divides of 1/1 (no denormals, no chain between iterations).
