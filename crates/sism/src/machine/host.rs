@@ -229,12 +229,21 @@ pub fn valid_ways(kb: u32, ways: u32) -> Option<u32> {
 /// The `host` preset for `facts`, with the vector costs of `backend` (usually `facts.backend`).
 pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> MachineConfig {
     let fam = family_of(&facts.vendor, facts.family, facts.model);
+    // A cache whose reported size has no associativity with power-of-two sets (Intel's shared
+    // caches often do not: 300 MiB of 20 ways is 245,760 sets) is modelled at the largest power of
+    // two below it, not dropped: dropping it left such a host with no shared cache, and its
+    // calibration sized the "DRAM" benchmarks to fit in it.
     let cache = |level: u32, default: (u32, u32)| {
         facts
             .caches
             .iter()
             .find(|c| c.0 == level)
-            .and_then(|&(_, kb, ways)| valid_ways(kb, ways).map(|w| (kb, w)))
+            .and_then(|&(_, kb, ways)| {
+                valid_ways(kb, ways).map(|w| (kb, w)).or_else(|| {
+                    let pow2 = 1u32 << kb.checked_ilog2()?;
+                    valid_ways(pow2, ways).map(|w| (pow2, w))
+                })
+            })
             .unwrap_or(default)
     };
     let (l1_kb, l1_ways) = cache(1, (32, 8));
@@ -380,6 +389,29 @@ mod tests {
             }
         }
         assert_eq!(family_of("AuthenticAMD", 26, 2).name, "zen5");
+    }
+
+    #[test]
+    fn a_shared_cache_without_power_of_two_sets_is_modelled_at_the_power_of_two_below() {
+        // The Emerald Rapids VM's /sys: 48 KiB of 12 ways, 2 MiB of 16, 300 MiB of 20 ways.
+        let facts = HostFacts {
+            model_name: "test".into(),
+            vendor: "GenuineIntel".into(),
+            family: 6,
+            model: 207,
+            clock_ghz: 2.1,
+            threads: 2,
+            threads_per_core: 1,
+            caches: vec![(1, 48, 12), (2, 2048, 16), (3, 307_200, 20)],
+            backend: sism_simd::BackendKind::Avx512,
+        };
+        let m = host_preset_from(&facts, sism_simd::BackendKind::Avx512);
+        m.validate().unwrap();
+        assert_eq!((m.l1_kb, m.l1_ways), (48, 12));
+        assert_eq!((m.l2_kb, m.l2_ways), (2048, 16));
+        // 256 MiB: 4 Mi lines, 16 ways of 2^18 sets.
+        assert_eq!((m.l3_kb, m.l3_ways), (262_144, 16));
+        assert!(m.l3_latency > 0);
         assert_eq!(family_of("GenuineIntel", 6, 143).name, "sapphire-rapids");
     }
 
