@@ -19,7 +19,9 @@
 //! ALU operations; scalar geometry through the counted float operations is a check),
 //! `mispredict_cycles` (a branch on random bytes), `scalar_float_cycles` (vector chains interleaved
 //! with scalar float chains), `transcendental_cycles` (div/sqrt), `gather_cycles` (gathers and
-//! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds),
+//! scatters from an L1-resident table, the mean of both), `atomic_cycles` (16-lane fetch-adds, the
+//! `fetch_add_i` the frames' histograms run, at random entries), `atomic_conflict_cycles` (the same
+//! with every lane at one entry: per conflicting lane),
 //! `l2_latency`, `l3_latency` and `dram_latency_ns` (loads of random lines of arrays that live in
 //! L2, in the shared cache, in DRAM: what a miss no prefetcher covers costs, independent misses
 //! overlapping with `memory_parallelism` held at [`FIT_PARALLELISM`]), `stream_l2_cycles`,
@@ -40,7 +42,6 @@
 //! Frames are never used for fitting: `sism validate` checks the fitted model on them.
 
 use std::hint::black_box;
-use std::sync::atomic::AtomicI32;
 use std::time::Instant;
 
 use sism_simd::{Kernel, Mask16, Recorder, ScalarClass, Simd, TaskRecord};
@@ -79,6 +80,8 @@ pub enum Fits {
     Gather,
     /// `atomic_cycles`, by 16-lane fetch-adds.
     Atomic,
+    /// `atomic_conflict_cycles`, by 16-lane fetch-adds whose lanes conflict (after `Atomic`).
+    AtomicConflict,
     /// `l2_latency`, by loads of random lines of an array that lives in L2.
     L2,
     /// `l3_latency`, by loads of random lines of an array that lives in the shared cache.
@@ -234,8 +237,12 @@ enum Kind {
         scatter: bool,
         count: usize,
     },
+    /// `count` 16-lane fetch-adds (`Simd::fetch_add_i`, as the frames' histograms and scatters
+    /// run them) into an L1-resident table: at random entries, or with `same` every lane of an
+    /// operation at one entry (15 conflicting lanes each).
     Atomic {
         count: usize,
+        same: bool,
     },
     /// Streaming loads (or stores) over an array of the level's size, `bytes` bytes in all.
     Stream {
@@ -439,9 +446,21 @@ pub const BENCHES: &[Bench] = &[
     },
     Bench {
         name: "atomic",
-        what: "16-lane fetch-adds into an L1 table",
+        what: "16-lane fetch-adds into an L1 table (as the frames' histograms run them)",
         fits: Fits::Atomic,
-        kind: Kind::Atomic { count: 50_000 },
+        kind: Kind::Atomic {
+            count: 50_000,
+            same: false,
+        },
+    },
+    Bench {
+        name: "atomic-conflicts",
+        what: "16-lane fetch-adds with every lane at one entry (15 conflicting lanes each)",
+        fits: Fits::AtomicConflict,
+        kind: Kind::Atomic {
+            count: 50_000,
+            same: true,
+        },
     },
     Bench {
         name: "random-l2",
@@ -1210,7 +1229,7 @@ impl Kernel for RandomStoreK<'_> {
 }
 
 struct AtomicK<'a> {
-    table: &'a [AtomicI32],
+    table: &'a mut [i32],
     idx: &'a [i32],
 }
 impl Kernel for AtomicK<'_> {
@@ -1221,7 +1240,7 @@ impl Kernel for AtomicK<'_> {
         let mut acc = s.splat_i(0);
         for chunk in self.idx.chunks_exact(16) {
             let i = s.load_i(chunk);
-            acc = s.add_i(acc, s.atomic_fetch_add_i(self.table, Mask16(0xFFFF), i, one));
+            acc = s.add_i(acc, s.fetch_add_i(self.table, Mask16(0xFFFF), i, one));
         }
         s.reduce_add_i(acc)
     }
@@ -1442,15 +1461,21 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
                 black_box(run_on(r, k));
             })
         }
-        Kind::Atomic { count } => {
+        Kind::Atomic { count, same } => {
             let n = (Level::L1.bytes(m) / 4).max(256) / 16 * 16;
-            let table: Vec<AtomicI32> = (0..n).map(|_| AtomicI32::new(0)).collect();
-            let idx = gather_indices(n, 16, count);
+            let mut table = vec![0i32; n];
+            let mut idx = gather_indices(n, 16, count);
+            if same {
+                for op in idx.chunks_exact_mut(16) {
+                    let first = op[0];
+                    op.fill(first);
+                }
+            }
             native_and_counted(&mut |r| {
                 black_box(run_on(
                     r,
                     AtomicK {
-                        table: &table,
+                        table: &mut table,
                         idx: &idx,
                     },
                 ));
@@ -1993,6 +2018,9 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                 Fits::Atomic => solve(&mut m, x, 1.0, 10_000.0, &|m, c| {
                     m.atomic_cycles = c.round().max(1.0) as u32
                 }),
+                Fits::AtomicConflict => solve(&mut m, x, 0.0, 10_000.0, &|m, c| {
+                    m.atomic_conflict_cycles = c.round() as u32
+                }),
                 Fits::L2 => solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.l2_latency = c.round() as u32),
                 Fits::L3 if m.l3_kb > 0 => {
                     solve(&mut m, x, 0.0, 10_000.0, &|m, c| m.l3_latency = c.round() as u32)
@@ -2139,6 +2167,7 @@ mod tests {
         truth.transcendental_cycles = 9;
         truth.gather_cycles = 11.0;
         truth.atomic_cycles = 70;
+        truth.atomic_conflict_cycles = 3;
         truth.l2_latency = 12;
         truth.l3_latency = 40;
         truth.stream_l2_cycles = 1.5;
@@ -2186,7 +2215,7 @@ mod tests {
                 scatter,
                 count: 500,
             },
-            Kind::Atomic { .. } => Kind::Atomic { count: 500 },
+            Kind::Atomic { same, .. } => Kind::Atomic { count: 500, same },
             Kind::Stream { level, store, .. } => Kind::Stream {
                 level,
                 store,
@@ -2236,6 +2265,7 @@ mod tests {
         start.transcendental_cycles = 2;
         start.gather_cycles = 3.0;
         start.atomic_cycles = 10;
+        start.atomic_conflict_cycles = 20;
         start.l2_latency = 50;
         start.l3_latency = 100;
         start.stream_l2_cycles = 0.5;
@@ -2290,6 +2320,7 @@ mod tests {
         assert_eq!(c.transcendental_cycles, 9);
         assert!(near(c.gather_cycles, 11.0, 0.02), "gather {}", c.gather_cycles);
         assert_eq!(c.atomic_cycles, 70);
+        assert_eq!(c.atomic_conflict_cycles, 3);
         assert!(c.l2_latency.abs_diff(12) <= 1, "l2 {}", c.l2_latency);
         assert!(c.l3_latency.abs_diff(40) <= 1, "l3 {}", c.l3_latency);
         assert!(
