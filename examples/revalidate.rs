@@ -138,7 +138,11 @@ fn main() {
                 let (k, v) = kv.split_once('=').expect("KEY=VALUE");
                 // The override replaces the file's own line for the key.
                 let own = format!("{k} =");
-                text = text.lines().filter(|l| !l.starts_with(&own)).collect::<Vec<_>>().join("\n");
+                text = text
+                    .lines()
+                    .filter(|l| !l.starts_with(&own))
+                    .collect::<Vec<_>>()
+                    .join("\n");
                 text.push_str(&format!("\n{k} = {v}\n"));
             }
             let with = cache.join("machine.toml");

@@ -997,16 +997,57 @@ impl Kernel for BinPrefix<'_> {
     fn run<S: Simd>(self, s: S) {
         s.begin_task(task_kind::GRID_SCATTER);
         let n_bins = self.bin_start.len() - 1;
-        let mut running = 0u32;
-        for bin in 0..n_bins {
-            s.s_store(self.bin_start, bin, running);
-            for (counts, pos) in self.chunk_counts.iter().zip(self.write_pos.iter_mut()) {
-                s.s_store(pos, bin, running);
-                running = s.s_add(running, s.s_load(counts, bin));
-                s.scalar_op(ScalarClass::Branch);
+        // Chunk-major, 16 bins a vector, so that every chunk's array is streamed once. Bin-major
+        // order (one bin across every chunk's array, then the next) put the chunks' same-offset
+        // entries in one L1 set: on the Intel Xeon VM it took 27 cycles a bin and chunk (15 ms of
+        // a 1600×1200 frame's 18 ms scatter step), which the model, placing lines by first touch,
+        // could not see.
+        // Pass 1: each bin's total over the chunks, into `bin_start[..n_bins]`.
+        let totals = as_i32_mut(&mut self.bin_start[..n_bins]);
+        for (c, counts) in self.chunk_counts.iter().enumerate() {
+            let counts = sism_simd::as_i32(counts);
+            let first = s.s_branch(c == 0);
+            for at in (0..n_bins).step_by(16) {
+                let m = s.mask_first_n(n_bins - at);
+                let add = s.mask_load_i(s.splat_i(0), m, &counts[at..]);
+                let sum = if first {
+                    add
+                } else {
+                    s.add_i(s.mask_load_i(s.splat_i(0), m, &totals[at..]), add)
+                };
+                s.mask_store_i(&mut totals[at..], m, sum);
             }
         }
+        // Pass 2: exclusive prefix over the bins (scalar: a chain through `running`).
+        let mut running = 0u32;
+        for bin in 0..n_bins {
+            let total = s.s_load(self.bin_start, bin);
+            s.s_store(self.bin_start, bin, running);
+            running = s.s_add(running, total);
+            s.scalar_op(ScalarClass::Branch);
+        }
         s.s_store(self.bin_start, n_bins, running);
+        // Pass 3: each chunk's first position in each bin: the bin's start plus the counts of the
+        // chunks before, chunk after chunk.
+        for c in 0..self.write_pos.len() {
+            let (before, rest) = self.write_pos.split_at_mut(c);
+            let pos = as_i32_mut(&mut rest[0]);
+            let first = s.s_branch(c == 0);
+            for at in (0..n_bins).step_by(16) {
+                let m = s.mask_first_n(n_bins - at);
+                let start = if first {
+                    s.mask_load_i(s.splat_i(0), m, sism_simd::as_i32(&self.bin_start[at..n_bins]))
+                } else {
+                    let prev = sism_simd::as_i32(&before[c - 1][at..]);
+                    let prev_counts = sism_simd::as_i32(&self.chunk_counts[c - 1][at..]);
+                    s.add_i(
+                        s.mask_load_i(s.splat_i(0), m, prev),
+                        s.mask_load_i(s.splat_i(0), m, prev_counts),
+                    )
+                };
+                s.mask_store_i(&mut pos[at..], m, start);
+            }
+        }
         s.end_task();
     }
 }
@@ -1069,6 +1110,57 @@ mod tests {
             slice_scale,
             slice_from: slice_thresholds(z_min, slice_scale, slices),
             samples: 1,
+        }
+    }
+
+    /// The bin-major definition: `bin_start[b]` is the samples of every bin before `b`, and chunk
+    /// `c` writes bin `b` from `bin_start[b]` plus the counts of the chunks before it in bin `b`.
+    fn prefix_by_definition(counts: &[Vec<u32>], n_bins: usize) -> (Vec<u32>, Vec<Vec<u32>>) {
+        let mut bin_start = vec![0; n_bins + 1];
+        let mut write_pos = vec![vec![0; n_bins]; counts.len()];
+        let mut running = 0;
+        for bin in 0..n_bins {
+            bin_start[bin] = running;
+            for (c, chunk) in counts.iter().enumerate() {
+                write_pos[c][bin] = running;
+                running += chunk[bin];
+            }
+        }
+        bin_start[n_bins] = running;
+        (bin_start, write_pos)
+    }
+
+    #[test]
+    fn bin_prefix_streamed_chunk_by_chunk_equals_the_bin_major_definition() {
+        let mut state = 7u32;
+        // Bin counts that are no multiple of 16 (the masked tails), one chunk and several.
+        for (n_bins, chunks) in [(1, 1), (37, 1), (16, 3), (53, 5), (200, 9)] {
+            let counts: Vec<Vec<u32>> = (0..chunks)
+                .map(|_| {
+                    (0..n_bins)
+                        .map(|_| {
+                            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                            (state >> 24) % 7
+                        })
+                        .collect()
+                })
+                .collect();
+            let want = prefix_by_definition(&counts, n_bins);
+            for counted in [false, true] {
+                let mut bin_start = vec![0u32; n_bins + 1];
+                let mut write_pos = vec![vec![0u32; n_bins]; chunks];
+                let k = BinPrefix {
+                    chunk_counts: &counts,
+                    bin_start: &mut bin_start,
+                    write_pos: &mut write_pos,
+                };
+                if counted {
+                    crate::exec::counting(&sism_simd::Recorder::new(), k);
+                } else {
+                    crate::exec::native(k);
+                }
+                assert_eq!((bin_start, write_pos), want, "{n_bins} bins, {chunks} chunks");
+            }
         }
     }
 
