@@ -86,8 +86,10 @@ fn calibrate_writes_a_machine_file_that_validates_and_resolves() {
         let error = fit_error_percent(&text, bench);
         assert!(error.abs() <= 25.0, "{bench} fitted {error}% off:\n{text}");
     }
-    // A DRAM access costs more than a shared-cache hit.
-    assert!(m.dram_latency_ns > 0.0, "{m:?}");
+    // DRAM's latency beyond the shared cache is a fitted figure in the fit's range (from 0: on the
+    // Emerald Rapids VM it fits at 0 in most calibrations, the shared cache's latency over 16
+    // misses in flight already covering a random DRAM line there).
+    assert!(m.dram_latency_ns >= 0.0 && m.dram_latency_ns.is_finite(), "{m:?}");
 }
 
 /// The error column (percent) of `bench`'s line in a calibrated machine file's header
