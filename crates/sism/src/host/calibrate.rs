@@ -2361,17 +2361,7 @@ mod tests {
             shared_cache: None,
             rounds: 1,
         };
-        let facts = crate::machine::host::HostFacts {
-            model_name: "test cpu".into(),
-            vendor: "GenuineIntel".into(),
-            family: 6,
-            model: 207,
-            clock_ghz: 2.1,
-            threads: 2,
-            threads_per_core: 1,
-            caches: vec![(1, 48, 12), (2, 2048, 16)],
-            backend: sism_simd::BackendKind::Avx512,
-        };
+        let facts = crate::machine::host::HostFacts::xeon_vm(vec![(1, 48, 12), (2, 2048, 16)]);
         let text = cal.to_toml(&facts, "avx512");
         let evidence = evidence_from_toml(&text);
         assert_eq!(evidence.len(), rows.len(), "{text}");

@@ -213,6 +213,25 @@ pub struct HostFacts {
     pub backend: sism_simd::BackendKind,
 }
 
+#[cfg(test)]
+impl HostFacts {
+    /// The project's Intel Xeon VM (Emerald Rapids, family 6 model 207, 2 threads without SMT,
+    /// 2.1 GHz, AVX-512) with `caches` (level, KB, ways): the tests' stand-in for a probed host.
+    pub(crate) fn xeon_vm(caches: Vec<(u32, u32, u32)>) -> HostFacts {
+        HostFacts {
+            model_name: "test".into(),
+            vendor: "GenuineIntel".into(),
+            family: 6,
+            model: 207,
+            clock_ghz: 2.1,
+            threads: 2,
+            threads_per_core: 1,
+            caches,
+            backend: sism_simd::BackendKind::Avx512,
+        }
+    }
+}
+
 /// The most ways ≤ `ways` for which a cache of `kb` KB with 64-byte lines has a power-of-two
 /// number of sets (the model's caches index by masks). `None` when the size is not a multiple of a
 /// line or no associativity works.
@@ -389,22 +408,13 @@ mod tests {
             }
         }
         assert_eq!(family_of("AuthenticAMD", 26, 2).name, "zen5");
+        assert_eq!(family_of("GenuineIntel", 6, 143).name, "sapphire-rapids");
     }
 
     #[test]
     fn a_shared_cache_without_power_of_two_sets_is_modelled_at_the_power_of_two_below() {
         // The Emerald Rapids VM's /sys: 48 KiB of 12 ways, 2 MiB of 16, 300 MiB of 20 ways.
-        let facts = HostFacts {
-            model_name: "test".into(),
-            vendor: "GenuineIntel".into(),
-            family: 6,
-            model: 207,
-            clock_ghz: 2.1,
-            threads: 2,
-            threads_per_core: 1,
-            caches: vec![(1, 48, 12), (2, 2048, 16), (3, 307_200, 20)],
-            backend: sism_simd::BackendKind::Avx512,
-        };
+        let facts = HostFacts::xeon_vm(vec![(1, 48, 12), (2, 2048, 16), (3, 307_200, 20)]);
         let m = host_preset_from(&facts, sism_simd::BackendKind::Avx512);
         m.validate().unwrap();
         assert_eq!((m.l1_kb, m.l1_ways), (48, 12));
@@ -412,7 +422,6 @@ mod tests {
         // 256 MiB: 4 Mi lines, 16 ways of 2^18 sets.
         assert_eq!((m.l3_kb, m.l3_ways), (262_144, 16));
         assert!(m.l3_latency > 0);
-        assert_eq!(family_of("GenuineIntel", 6, 143).name, "sapphire-rapids");
     }
 
     #[test]
