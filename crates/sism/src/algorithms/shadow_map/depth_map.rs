@@ -15,6 +15,8 @@
 //! adds them when a map is rendered. Texels that see nothing hold `+∞` (lit for any receiver).
 //! Reads outside the map are [`Lookup::Outside`]; each method says what they mean.
 
+use std::mem::MaybeUninit;
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use sism_simd::{Kernel, Mask16, ScalarClass, Simd};
@@ -539,16 +541,28 @@ fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: Til
             }
             let rows_here = (th - by).min(4) as usize;
             let cols_here = (tw - bx).min(4) as usize;
-            // Counted: the block's extents; per texel its load from the block and its store into
-            // the map's row (each row's stored line recorded once).
+            // Counted: the block's extents; per block row the whole-row test, then its four
+            // texels as one 16-byte load from the block and one store into the map's row (a
+            // copy of a run whose length the compiler cannot see would be a `memcpy` call per
+            // row, which the host spent more time in than in the rest of the resolve); a
+            // partial row (the image's last columns) a texel at a time. Each row's stored line
+            // is recorded once.
             s.scalar_op(ScalarClass::Alu);
             s.scalar_op(ScalarClass::Alu);
             for rr in 0..rows_here {
                 let row = &mut rows[by as usize + rr][bx as usize..bx as usize + cols_here];
-                for cc in 0..cols_here {
+                let texels = &vals[4 * rr..4 * rr + 4];
+                if s.s_branch(row.len() == 4) {
                     s.scalar_op(ScalarClass::Mem);
                     s.scalar_op(ScalarClass::Mem);
-                    row[cc].write(vals[4 * rr + cc]);
+                    let whole: &mut [MaybeUninit<f32>; 4] = (&mut *row).try_into().expect("a row of 4");
+                    *whole = [texels[0], texels[1], texels[2], texels[3]].map(MaybeUninit::new);
+                } else {
+                    for (cc, texel) in row.iter_mut().enumerate() {
+                        s.scalar_op(ScalarClass::Mem);
+                        s.scalar_op(ScalarClass::Mem);
+                        texel.write(texels[cc]);
+                    }
                 }
                 s.scalar_write(row);
             }
