@@ -73,25 +73,44 @@ pub const STACK_LINES_BASE: u64 = 1 << 52;
 struct StackLines {
     /// Line of the mark (exclusive upper bound); 0: no mark, nothing renamed.
     top: u64,
-    /// The stack lines touched so far, in first-touch order (index = renamed line - base).
-    seen: Vec<u64>,
+    /// The stack lines touched so far, in first-touch order (index = renamed line - base), as
+    /// their distance below the mark's line.
+    seen: Vec<u32>,
+    /// Per line below the mark (distance `top - 1 - line`, [`STACK_WINDOW`] / 64 entries, made on
+    /// the first mark): its renamed index + 1, or 0 when not touched yet. A table, not a search
+    /// of `seen`, since a kernel may keep a whole tile buffer (hundreds of lines) on its stack.
+    index: Vec<u32>,
 }
 
 impl StackLines {
+    /// Starts over below a new mark `top`: no line touched yet.
+    fn reset(&mut self, top: u64) {
+        for &d in &self.seen {
+            self.index[d as usize] = 0;
+        }
+        self.seen.clear();
+        if self.index.is_empty() {
+            self.index = vec![0; STACK_WINDOW >> 6];
+        }
+        self.top = top;
+    }
+
     /// `line` renamed if it lies in the kernel's stack, else unchanged.
     #[inline(always)]
     fn rename(&mut self, line: u64) -> u64 {
         if line >= self.top || line + (STACK_WINDOW as u64 >> 6) < self.top {
             return line;
         }
-        let k = match self.seen.iter().position(|&l| l == line) {
-            Some(k) => k,
-            None => {
-                self.seen.push(line);
-                self.seen.len() - 1
-            }
+        // In 0..STACK_WINDOW / 64 by the test above.
+        let d = (self.top - 1 - line) as usize;
+        let Some(slot) = self.index.get_mut(d) else {
+            return line;
         };
-        STACK_LINES_BASE + k as u64
+        if *slot == 0 {
+            self.seen.push(d as u32);
+            *slot = self.seen.len() as u32;
+        }
+        STACK_LINES_BASE + u64::from(*slot - 1)
     }
 }
 
@@ -262,10 +281,7 @@ impl Recorder {
     /// operations ([`crate::run_counting`] marks its own frame).
     pub fn mark_stack(&self, addr: usize) {
         let mut st = self.st.borrow_mut();
-        st.stack = StackLines {
-            top: line_of(addr),
-            seen: Vec::new(),
-        };
+        st.stack.reset(line_of(addr));
     }
 
     /// Start a task (files the current one first if it recorded anything).
