@@ -157,12 +157,16 @@ fn write_receivers<S: Simd>(s: S, tile: &TileRaster<'_>, out: EyeTileOut<'_>) ->
             let hit = s.cmp_ge_i(slot, s.splat_i(0));
             let rows_here = s.s_min(s.s_sub(th, by), 4) as usize;
             let cols_here = s.s_min(s.s_sub(tw, bx), 4) as usize;
+            // Each block row's pieces of the two outputs, taken once (not a row lookup and two
+            // bounds checks per pixel, which the host executed and the records did not count).
+            let cols = bx as usize..bx as usize + cols_here;
             if !s.s_branch(s.mask_any(hit)) {
                 for r in 0..rows_here {
                     let row = (by as usize) + r;
-                    for c in 0..cols_here {
-                        s.s_wrote(pixels[row][bx as usize + c].write(None));
-                        s.s_wrote(triangles[row][bx as usize + c].write(NO_TRIANGLE));
+                    let tris = &mut triangles[row][cols.clone()];
+                    for (px, tri) in pixels[row][cols.clone()].iter_mut().zip(tris) {
+                        s.s_wrote(px.write(None));
+                        s.s_wrote(tri.write(NO_TRIANGLE));
                     }
                 }
                 continue;
@@ -214,12 +218,9 @@ fn write_receivers<S: Simd>(s: S, tile: &TileRaster<'_>, out: EyeTileOut<'_>) ->
             let original = s.to_array_i(original);
             for r in 0..rows_here {
                 let row = (by as usize) + r;
-                for c in 0..cols_here {
+                let tris = &mut triangles[row][cols.clone()];
+                for (c, (px, tri)) in pixels[row][cols.clone()].iter_mut().zip(tris).enumerate() {
                     let k = 4 * r + c;
-                    let (px, tri) = (
-                        &mut pixels[row][bx as usize + c],
-                        &mut triangles[row][bx as usize + c],
-                    );
                     if s.s_branch(hit.test(k)) {
                         // Counted as executed: six lanes read back from the spilled vectors, the
                         // receiver stored a field at a time (its tag and six floats), the
