@@ -101,11 +101,10 @@ impl StackLines {
         if line >= self.top || line + (STACK_WINDOW as u64 >> 6) < self.top {
             return line;
         }
-        // In 0..STACK_WINDOW / 64 by the test above.
+        // In 0..STACK_WINDOW / 64 by the test above; `top` is set only by `reset`, which makes
+        // the table.
         let d = (self.top - 1 - line) as usize;
-        let Some(slot) = self.index.get_mut(d) else {
-            return line;
-        };
+        let slot = &mut self.index[d];
         if *slot == 0 {
             self.seen.push(d as u32);
             *slot = self.seen.len() as u32;

@@ -856,24 +856,21 @@ pub struct TileBuf {
 }
 
 impl TileBuf {
-    /// A cleared buffer (depth 0, no triangle), cleared by the kernel's own vector stores (32 KiB
-    /// a tile: the back end's first work on a tile, counted as it executes). It lives on the
-    /// task's stack, as a core's tile buffer stays in its cache from tile to tile: the counting
-    /// context renames stack lines alike for every task, so the model's caches keep it warm as
-    /// the host's do. (A boxed buffer was fresh memory to the model at every tile, since the
-    /// counting allocator never reuses an address within a frame, and `Box::new` of the filled
-    /// arrays built them on the stack and copied them over, uncounted.) The value starts zeroed,
-    /// which is a valid `TileBuf`; the counted stores then set every element.
+    /// Clears the buffer (depth 0, no triangle) with the kernel's own vector stores: 32 KiB a tile,
+    /// the back end's first work on a tile, counted as it executes. The buffer lives on the task's
+    /// stack, as a core's tile buffer stays in its cache from tile to tile: the counting context
+    /// renames stack lines alike for every task, so the model's caches keep it warm as the host's
+    /// do. (A boxed buffer was fresh memory to the model at every tile, since the counting
+    /// allocator never reuses an address within a frame, and `Box::new` of the filled arrays built
+    /// them on the stack and copied them over, uncounted.) It clears in place: a constructor
+    /// returning the 32 KiB value was compiled as a copy into the caller's frame, uncounted too.
     #[inline(always)]
-    fn cleared<S: Simd>(s: S) -> Self {
-        // SAFETY: every bit pattern, all zeros included, is a valid `[f32]` and `[i32]`.
-        let mut buf: Self = unsafe { std::mem::zeroed() };
+    fn clear<S: Simd>(&mut self, s: S) {
         let (nothing, none) = (s.splat_f(0.0), s.splat_i(-1));
         for i in (0..TILE_PIXELS).step_by(16) {
-            s.store_f(&mut buf.inv_z[i..i + 16], nothing);
-            s.store_i(&mut buf.id[i..i + 16], none);
+            s.store_f(&mut self.inv_z[i..i + 16], nothing);
+            s.store_i(&mut self.id[i..i + 16], none);
         }
-        buf
     }
 
     /// Index in the buffers of the pixel at tile-local `(x, y)`.
@@ -1043,7 +1040,10 @@ impl<R: TileResolve> Kernel for TileKernel<'_, '_, R> {
         s.begin_task(task_kind::RASTER_TILE);
         let mut counts = TileCounts::default();
         let (ox, oy) = self.origin;
-        let mut buf = TileBuf::cleared(s);
+        // SAFETY: every bit pattern, all zeros included, is a valid `TileBuf` (arrays of `f32` and
+        // `i32`); `clear` then sets every element.
+        let mut buf: TileBuf = unsafe { std::mem::zeroed() };
+        buf.clear(s);
         // Lane constants: pixel-centre offsets inside a 4×4 block; centres of the sub-tiles of a
         // tile and of the blocks of a sub-tile (relative to its origin).
         let pix_x = s.from_array_f(lanes(|k| (k % 4) as f32 + 0.5));
