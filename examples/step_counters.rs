@@ -1,7 +1,9 @@
 //! Per step of a saved records file, the summed counters of its tasks, one line per step:
 //! `cargo run --release --example step_counters -- out/records.bin [MACHINE]`. With a machine file,
 //! then one line per step and task kind: its tasks' issue cycles on that machine
-//! (`timing::compute_cost`, no memory), to split a step's prediction between its kinds of task.
+//! (`timing::compute_cost`, no memory), to split a step's prediction between its kinds of task;
+//! each step's port bounds; and per step and task kind the whole prediction (issue, memory,
+//! atomics) of the frame replayed on one core, as a one-thread host frame runs it.
 use sism::machine::records::load_records;
 use sism_simd::Counters;
 
@@ -61,5 +63,34 @@ fn main() {
         }
         let ms: Vec<String> = sum.iter().map(|&c| format!("{:.3}", m.ms(c as u64))).collect();
         println!("{},{}", p.phase, ms.join(","));
+    }
+    replay_by_kind(&recs, &m);
+}
+
+/// Per step and task kind, the whole frame replayed on one core of `m` (as a one-thread frame
+/// runs): each kind's tasks' core time (issue, stalls, atomics) from the schedule, and their issue
+/// alone, in ms, to split a step's whole prediction between its kinds of task.
+fn replay_by_kind(recs: &sism::machine::records::CanonicalRecords, m: &sism::machine::config::MachineConfig) {
+    let mut one = m.clone();
+    one.cores = 1;
+    let report = sism::machine::simulate(recs, &one);
+    println!("step,kind,tasks,issue_ms,total_ms");
+    for (p, r) in recs.iter().zip(&report.phases) {
+        let mut by_kind = std::collections::BTreeMap::<u32, (u64, u64, u64)>::new();
+        for (t, &(_, cycles)) in p.tasks.iter().zip(&r.schedule) {
+            let (issue, atomics) = sism::machine::timing::compute_cost(&t.counters, &one);
+            let e = by_kind.entry(t.kind).or_default();
+            e.0 += 1;
+            e.1 += issue + atomics;
+            e.2 += cycles;
+        }
+        for (kind, (n, issue, total)) in by_kind {
+            println!(
+                "{},{kind:#x},{n},{:.3},{:.3}",
+                p.phase,
+                one.ms(issue),
+                one.ms(total)
+            );
+        }
     }
 }
