@@ -68,29 +68,22 @@ fn main() {
 }
 
 /// Per step and task kind, the whole frame replayed on one core of `m` (as a one-thread frame
-/// runs): each kind's tasks' core time (issue, stalls, atomics) from the schedule, and their issue
-/// alone, in ms, to split a step's whole prediction between its kinds of task.
+/// runs): each kind's tasks' core time (issue, stalls, atomics) from the schedule, in ms, to split
+/// a step's whole prediction between its kinds of task (their issue alone is the table above's).
 fn replay_by_kind(recs: &sism::machine::records::CanonicalRecords, m: &sism::machine::config::MachineConfig) {
     let mut one = m.clone();
     one.cores = 1;
     let report = sism::machine::simulate(recs, &one);
-    println!("step,kind,tasks,issue_ms,total_ms");
+    println!("step,kind,tasks,total_ms");
     for (p, r) in recs.iter().zip(&report.phases) {
-        let mut by_kind = std::collections::BTreeMap::<u32, (u64, u64, u64)>::new();
+        let mut by_kind = std::collections::BTreeMap::<u32, (u64, u64)>::new();
         for (t, &(_, cycles)) in p.tasks.iter().zip(&r.schedule) {
-            let (issue, atomics) = sism::machine::timing::compute_cost(&t.counters, &one);
             let e = by_kind.entry(t.kind).or_default();
             e.0 += 1;
-            e.1 += issue + atomics;
-            e.2 += cycles;
+            e.1 += cycles;
         }
-        for (kind, (n, issue, total)) in by_kind {
-            println!(
-                "{},{kind:#x},{n},{:.3},{:.3}",
-                p.phase,
-                one.ms(issue),
-                one.ms(total)
-            );
+        for (kind, (n, total)) in by_kind {
+            println!("{},{kind:#x},{n},{:.3}", p.phase, one.ms(total));
         }
     }
 }
