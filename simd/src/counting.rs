@@ -1139,6 +1139,10 @@ impl<B: Simd> Simd for Counting<'_, B> {
                 crate::ScalarClass::Div => st.c.scalar_div += 1,
                 crate::ScalarClass::Branch => st.c.scalar_branch += 1,
                 crate::ScalarClass::Mem => st.c.scalar_mem += 1,
+                crate::ScalarClass::Store => {
+                    st.c.scalar_mem += 1;
+                    st.c.scalar_stores += 1;
+                }
             }
             st.tick(1);
         })

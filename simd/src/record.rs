@@ -75,6 +75,10 @@ counters! {
     scalar_branch,
     /// Counted scalar loads and stores.
     scalar_mem,
+    /// Of `scalar_mem`, the stores ([`crate::ScalarClass::Store`]): each holds a store-buffer
+    /// entry until its line is in the cache, so stores per written line bound how many written
+    /// lines a core can wait for at once.
+    scalar_stores,
     /// Contiguous vector loads (incl. masked and `from_array`).
     load,
     /// Contiguous vector stores (incl. masked and `to_array`).

@@ -49,8 +49,12 @@ pub enum ScalarClass {
     Div,
     /// Compares feeding branches, and branches.
     Branch,
-    /// Loads and stores (their lines go into the task's line stream).
+    /// Loads (their lines go into the task's line stream).
     Mem,
+    /// Stores (their lines go into the task's line stream): counted in `scalar_mem` with the
+    /// loads, and apart in `scalar_stores`, since each one holds a store-buffer entry until its
+    /// line is in the cache.
+    Store,
 }
 
 /// The scalar number types the counted scalar operations take.
@@ -137,12 +141,17 @@ macro_rules! scalar_num {
 scalar_num!(Float: f32, f64);
 scalar_num!(Alu: i32, u32, i64, u64, usize);
 
-/// [`Simd::s_read_words`] and [`Simd::s_wrote_words`]: one [`ScalarClass::Mem`] per 4 bytes of
-/// `*r` (at least one), and its lines once, read or written.
+/// [`Simd::s_read_words`] and [`Simd::s_wrote_words`]: one [`ScalarClass::Mem`] (read) or
+/// [`ScalarClass::Store`] (written) per 4 bytes of `*r` (at least one), and its lines once.
 #[inline(always)]
 fn count_words<S: Simd, T>(s: S, r: &T, write: bool) {
+    let class = if write {
+        ScalarClass::Store
+    } else {
+        ScalarClass::Mem
+    };
     for _ in 0..core::mem::size_of::<T>().div_ceil(4).max(1) {
-        s.scalar_op(ScalarClass::Mem);
+        s.scalar_op(class);
     }
     s.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), write);
 }
@@ -695,10 +704,11 @@ pub trait Simd: Copy {
         self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), false);
         *r
     }
-    /// Count a scalar store of `*r`, just written ([`ScalarClass::Mem`], its lines in the stream).
+    /// Count a scalar store of `*r`, just written ([`ScalarClass::Store`], its lines in the
+    /// stream).
     #[inline(always)]
     fn s_wrote<T>(self, r: &T) {
-        self.scalar_op(ScalarClass::Mem);
+        self.scalar_op(ScalarClass::Store);
         self.scalar_touch(r as *const T as usize, core::mem::size_of::<T>(), true);
     }
     /// Scalar read of a value `*r` of several 32-bit fields the kernel goes on to use one by one
@@ -721,25 +731,25 @@ pub trait Simd: Copy {
     }
     /// Count the stores of a value `*r` just written that was assembled from 32-bit scalars (lanes
     /// taken out of vectors one by one, fields computed apart): the compiler stores such a value a
-    /// word at a time, so it counts one [`ScalarClass::Mem`] per 4 bytes (at least one), and its
+    /// word at a time, so it counts one [`ScalarClass::Store`] per 4 bytes (at least one), and its
     /// lines once.
     #[inline(always)]
     fn s_wrote_words<T>(self, r: &T) {
         count_words(self, r, true);
     }
-    /// Scalar store `data[i] = v` ([`ScalarClass::Mem`], its line in the stream).
+    /// Scalar store `data[i] = v` ([`ScalarClass::Store`], its line in the stream).
     #[inline(always)]
     fn s_store<T>(self, data: &mut [T], i: usize, v: T) {
         data[i] = v;
         self.s_wrote(&data[i]);
     }
     /// `v.push(x)`: a store of `x` (its lines in the stream), the length update and the capacity
-    /// test ([`ScalarClass::Mem`], [`ScalarClass::Alu`], [`ScalarClass::Branch`]).
+    /// test ([`ScalarClass::Store`], [`ScalarClass::Alu`], [`ScalarClass::Branch`]).
     #[inline(always)]
     fn s_push<T>(self, v: &mut Vec<T>, x: T) {
         self.scalar_op(ScalarClass::Branch);
         self.scalar_op(ScalarClass::Alu);
-        self.scalar_op(ScalarClass::Mem);
+        self.scalar_op(ScalarClass::Store);
         v.push(x);
         let last = v.last().expect("just pushed");
         self.scalar_touch(last as *const T as usize, core::mem::size_of::<T>(), true);

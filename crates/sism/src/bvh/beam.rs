@@ -113,7 +113,7 @@ impl Beam {
             s.scalar_op(ScalarClass::Alu);
         }
         for _ in 0..4 {
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         let (v, l) = (self.len / 16, self.len % 16);
         self.dx[v][l] = dir.x;

@@ -58,6 +58,7 @@ pub const LIMITS: &[(&str, u64, u64)] = &[
     ("l3_ways", 1, 64),
     ("l3_latency", 0, 10_000),
     ("tlb_entries", 0, 1_000_000),
+    ("store_buffer_entries", 0, 65_536),
 ];
 
 /// Ranges of the real fields (inclusive): `clock_ghz` GHz, `dram_latency_ns` ns, `dram_bandwidth_gbs`
@@ -227,6 +228,17 @@ pub struct MachineConfig {
     /// figures). Hosts: the vendor's second-level data TLB (e.g. Zen 4: 3072, Ice Lake SP: 2048).
     #[serde(default)]
     pub tlb_entries: u32,
+    /// Store-buffer entries of one hardware thread (0–65536; 0 = not modelled). A store holds an
+    /// entry from issue until its line is in L1 and it has written it, and stores write in order,
+    /// so a task whose stores fall `k` to a written line keeps at most `entries / k` written lines
+    /// waiting for their misses at once: its write misses overlap that many, at least 1 and at most
+    /// `memory_parallelism` (a row of 4-byte fields, 16 stores to a line, overlaps a few; a 64-byte
+    /// vector store a line is bounded by `memory_parallelism` alone). Larrabee: 0 (in order, one
+    /// miss at a time already). Hosts: the core's store buffer (Intel's Golden Cove and its server
+    /// parts 114, Ice Lake 72, Skylake 56; AMD's Zen 4 64, Zen 5 104; from the vendors'
+    /// optimisation guides).
+    #[serde(default)]
+    pub store_buffer_entries: u32,
     /// Cycles of one TLB miss: a page walk whose entries hit in the caches (0–10000). Hosts: about
     /// 30 (the walkers' measured cost with the page-walk caches at work).
     #[serde(default)]
@@ -379,6 +391,7 @@ impl MachineConfig {
             task_overhead_cycles: 0.0,
             latency_scale: 1.0,
             tlb_entries: 0,
+            store_buffer_entries: 0,
             tlb_miss_cycles: 0.0,
             l3_kb: 0,
             l3_ways: 16,
@@ -605,6 +618,7 @@ impl MachineConfig {
             "l3_ways" => self.l3_ways,
             "l3_latency" => self.l3_latency,
             "tlb_entries" => self.tlb_entries,
+            "store_buffer_entries" => self.store_buffer_entries,
             _ => unreachable!("not an integer field: {key}"),
         }) as u64
     }

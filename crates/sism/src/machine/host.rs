@@ -68,6 +68,9 @@ pub struct CpuFamily {
     pub barrier: u32,
     /// Second-level data TLB entries for 4 KiB pages (AMD's and Intel's optimisation guides).
     pub tlb_entries: u32,
+    /// Store-buffer entries of one core (the vendors' optimisation guides):
+    /// [`MachineConfig::store_buffer_entries`].
+    pub store_buffer_entries: u32,
 }
 
 /// The family table. Zen 4 double-pumps 512-bit operations; Zen 5 and Intel's server cores have two
@@ -92,6 +95,7 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 4096,
+        store_buffer_entries: 104,
     },
     CpuFamily {
         name: "zen4",
@@ -112,6 +116,7 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 3072,
+        store_buffer_entries: 64,
     },
     CpuFamily {
         name: "sapphire-rapids",
@@ -132,6 +137,7 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 2048,
+        store_buffer_entries: 114,
     },
     CpuFamily {
         name: "icelake-sp",
@@ -152,6 +158,7 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 1536,
+        store_buffer_entries: 72,
     },
     CpuFamily {
         name: "generic-x86",
@@ -172,6 +179,7 @@ pub const FAMILIES: &[CpuFamily] = &[
         task_overhead: 2000.0,
         barrier: 10_000,
         tlb_entries: 1536,
+        store_buffer_entries: 56,
     },
 ];
 
@@ -322,6 +330,7 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         memory_parallelism: fam.memory_parallelism,
         task_overhead_cycles: fam.task_overhead,
         tlb_entries: fam.tlb_entries,
+        store_buffer_entries: fam.store_buffer_entries,
         // A page walk with the page-walk caches at work (assumption, for every family).
         tlb_miss_cycles: 30.0,
         // The family's float add latency against the nominal one the records are measured in.

@@ -194,7 +194,7 @@ pub fn applies(m: &MachineConfig, p: &Param) -> bool {
         "stream_l2_cycles" | "stream_dram_cycles" | "stream_ramp_share" => m.prefetcher,
         "tlb_miss_cycles" => m.tlb_entries > 0,
         // Zero means "none": doubling nothing is nothing.
-        "l3_kb" | "tlb_entries" | "task_overhead_cycles" => value(m, p) > 0.0,
+        "l3_kb" | "tlb_entries" | "store_buffer_entries" | "task_overhead_cycles" => value(m, p) > 0.0,
         _ => !matches!(p.kind, Kind::Flag),
     }
 }

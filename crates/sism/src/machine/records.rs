@@ -4,13 +4,14 @@
 //! offset, never a panic, an abort or a runaway allocation; the memory a replay takes is bounded by
 //! the file's size.
 //!
-//! Format, version 8 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
-//! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state; 8: `window_issue`):
+//! Format, version 9 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
+//! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state; 8: `window_issue`;
+//! 9: `scalar_stores`):
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 8 | magic `SISMREC\0` |
-//! | 4 | version (7) |
+//! | 4 | version (9) |
 //! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
 //! | 8 | total file size, bytes |
 //! | 4 | phase (step) count |
@@ -36,7 +37,7 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 8;
+pub const VERSION: u32 = 9;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Step flag bit: the host ran the step's tasks serially.

@@ -40,7 +40,10 @@
 //!   a line another core holds is fetched from DRAM. With `l3_kb > 0` (a host's last-level cache)
 //!   an L2 miss looks up one cache shared by all cores first (`l3_latency` on a hit; a miss adds
 //!   it to the DRAM latency); L2 write-backs are absorbed by it, and its own dirty evictions go to
-//!   DRAM. `memory_parallelism` (misses a thread overlaps, 1 on Larrabee) divides a task's stall.
+//!   DRAM. `memory_parallelism` (misses a thread overlaps, 1 on Larrabee) divides a task's stall;
+//!   its write misses that take longer than the task needs to fill its store buffer are divided
+//!   by no more than the written lines the buffer holds (`store_buffer_entries` over the task's
+//!   stores per written line, [`StoreBuffer`]).
 //! * **Prefetching** (`prefetcher`, hosts): an access within [`STREAM_REACH`] lines of one of the
 //!   task's last [`STREAMS`] stream heads continues that stream ([`LineMapper::map_each`]). When
 //!   such an access misses L1, the prefetcher has run ahead of it: it costs the streaming cost of
@@ -350,6 +353,39 @@ pub fn mispredict_cycles(c: &Counters, m: &MachineConfig) -> u64 {
     (c.branch_mispredicts as f64 * m.mispredict_cycles).ceil() as u64
 }
 
+/// What a task's store buffer does to its write misses ([`StoreBuffer::of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StoreBuffer {
+    /// Written lines the thread waits for at once: at least 1, at most `memory_parallelism`.
+    pub parallelism: f64,
+    /// Cycles the task takes, at its own pace, to issue as many stores as the buffer holds: a
+    /// write miss that returns sooner never fills it, and overlaps as a read miss does.
+    pub fill_cycles: f64,
+}
+
+impl StoreBuffer {
+    /// The store buffer of a task of `counters` and `issue` cycles whose writes missed L1
+    /// `write_misses` times on `m`. The task issues `k` = (vector stores + scalar stores +
+    /// scattered lines) / `write_misses` stores to a written line, and its store buffer
+    /// (`store_buffer_entries`) holds `entries / k` such lines. `None` when the store buffer is not
+    /// modelled (0), the core overlaps no misses, or nothing missed.
+    pub fn of(counters: &Counters, write_misses: u64, issue: u64, m: &MachineConfig) -> Option<StoreBuffer> {
+        let stores = counters
+            .store
+            .saturating_add(counters.scalar_stores)
+            .saturating_add(counters.scatter_lines);
+        if m.store_buffer_entries == 0 || m.memory_parallelism <= 1.0 || write_misses == 0 || stores == 0 {
+            return None;
+        }
+        let entries = m.store_buffer_entries as f64;
+        let per_line = (stores as f64 / write_misses as f64).max(1.0);
+        Some(StoreBuffer {
+            parallelism: (entries / per_line).clamp(1.0, m.memory_parallelism),
+            fill_cycles: entries * issue as f64 / stores as f64,
+        })
+    }
+}
+
 /// The exposed part of `stall` for a task of `busy` cycles on a core of `threads` threads.
 pub fn exposed_stall(stall: u64, busy: u64, threads: u32) -> u64 {
     let t = threads.max(1) as u64;
@@ -411,6 +447,29 @@ struct LineTally {
     streamed: [u64; 3],
     /// The same for lines of a young stream (within its first [`STREAM_RAMP`] lines).
     young: [u64; 3],
+    /// Writes that missed L1: the written lines the task's stores waited for.
+    write_misses: u64,
+    /// Of the L1 misses, the writes', as the fields above count all of them: L2 hits, shared-cache
+    /// hits, DRAM fills (levels 0, 1, 2), and of each the streamed and the young streams' lines.
+    write_levels: WriteLevels,
+}
+
+/// A task's write misses by the level that served them ([`LineTally::write_levels`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct WriteLevels {
+    hits: [u64; 3],
+    streamed: [u64; 3],
+    young: [u64; 3],
+}
+
+impl WriteLevels {
+    /// Counts a write miss served by `level` (0 L2, 1 shared cache, 2 DRAM) when `write` is 1.
+    #[inline(always)]
+    fn add(&mut self, level: usize, write: u64, stream: u64, young: u64) {
+        self.hits[level] += write;
+        self.streamed[level] += write & stream;
+        self.young[level] += write & young;
+    }
 }
 
 impl LineTally {
@@ -425,11 +484,14 @@ impl LineTally {
                 self.l1_hits += 1;
                 continue;
             }
+            let w = write as u64;
+            self.write_misses += w;
             let r = core.l2.access(id, write);
             if r.hit {
                 self.l2_hits += 1;
                 self.streamed[0] += stream;
                 self.young[0] += young;
+                self.write_levels.add(0, w, stream, young);
                 continue;
             }
             self.l2_misses += 1;
@@ -441,11 +503,13 @@ impl LineTally {
                     let level = if r3.hit { 1 } else { 2 };
                     self.streamed[level] += stream;
                     self.young[level] += young;
+                    self.write_levels.add(level, w, stream, young);
                     self.writebacks += r3.writeback as u64;
                 }
                 None => {
                     self.streamed[2] += stream;
                     self.young[2] += young;
+                    self.write_levels.add(2, w, stream, young);
                     self.writebacks += r.writeback as u64;
                 }
             }
@@ -586,9 +650,37 @@ impl<'a> Machine<'a> {
             .ceil() as u64;
         let stall = latency.saturating_add(streaming);
         // Misses a thread overlaps (out-of-order cores) divide its latency before other hardware
-        // threads hide what they can; a stream's cost is a throughput already.
+        // threads hide what they can; a stream's cost is a throughput already. Write misses slower
+        // than the store buffer fills overlap no more than it holds written lines
+        // ([`StoreBuffer`]).
         let overlapped = if m.memory_parallelism > 1.0 {
-            (latency as f64 / m.memory_parallelism).ceil() as u64
+            let w = &tally.write_levels;
+            let (w_streamed, w_young) = if m.prefetcher {
+                (w.streamed, w.young)
+            } else {
+                ([0; 3], [0; 3])
+            };
+            let write_level = |k: usize, lat: u64| {
+                let random = w.hits[k] - w_streamed[k] - w_young[k];
+                (random as f64 + w_young[k] as f64 * share) * lat as f64
+            };
+            // Write misses of the levels slower than the buffer fills wait in it, as many at once
+            // as it holds lines; the others overlap as reads.
+            let (blocking, parallelism) = match StoreBuffer::of(counters, tally.write_misses, issue, m) {
+                Some(b) => {
+                    let slow = |lat: u64| lat as f64 > b.fill_cycles;
+                    let mut blocking = 0.0;
+                    for (k, lat) in [(0, l2_lat), (1, m.l3_latency as u64), (2, self.dram_miss)] {
+                        if slow(lat) {
+                            blocking += write_level(k, lat);
+                        }
+                    }
+                    (blocking, b.parallelism)
+                }
+                None => (0.0, m.memory_parallelism),
+            };
+            let others = (latency as f64 - blocking).max(0.0);
+            (others / m.memory_parallelism + blocking / parallelism).ceil() as u64
         } else {
             latency
         }

@@ -464,7 +464,7 @@ impl Kernel for SampleCodes<'_> {
                 c as u8
             });
             self.code[k] = if facing { c } else { 0 };
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
             s.scalar_op(ScalarClass::Branch);
             self.out_v[k] = match (facing, self.v) {
                 (false, _) => 0.0,
@@ -475,7 +475,7 @@ impl Kernel for SampleCodes<'_> {
                     f32::from(c & 1)
                 }
             };
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.scalar_write(self.code);
         s.scalar_write(self.out_v);
@@ -523,15 +523,15 @@ impl Kernel for Reprojection<'_> {
                     4 => 1.0,
                     _ => 0.5,
                 };
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
             } else if (s.s_branch(old == 0.0) && s.s_branch(v != 0))
                 || (s.s_branch(old == 1.0) && s.s_branch(v != 4))
             {
                 *vm = 0.5;
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
             }
             *ss_k = v;
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.scalar_write(self.vm);
         s.scalar_write(&ss);
@@ -640,7 +640,7 @@ impl Kernel for Final<'_> {
             } else {
                 vm
             };
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.scalar_write(self.out);
         s.end_task();

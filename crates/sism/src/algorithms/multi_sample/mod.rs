@@ -295,7 +295,7 @@ impl Kernel for Accumulate<'_> {
             let mut facing = [0f32; 16];
             for (lane, smp) in self.samples[i..].iter().enumerate().take(16) {
                 facing[lane] = receiver_facing(s, self.receivers, smp, self.point).unwrap_or(0.0);
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
             }
             let up = s.mask_and(m, s.cmp_gt_f(s.from_array_f(facing), zero));
             hidden += (s.mask_popcnt(m) - s.mask_popcnt(up)) as u64;

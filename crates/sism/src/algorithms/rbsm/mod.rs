@@ -402,7 +402,7 @@ impl Kernel for RbsmLookup<'_> {
                 s.scalar_op(ScalarClass::Mem);
                 (q[0][lane], q[1][lane], q[2][lane]) = (smp.q.x, smp.q.y, smp.q.z);
                 for _ in 0..3 {
-                    s.scalar_op(ScalarClass::Mem);
+                    s.scalar_op(ScalarClass::Store);
                 }
             }
             let q = [s.from_array_f(q[0]), s.from_array_f(q[1]), s.from_array_f(q[2])];

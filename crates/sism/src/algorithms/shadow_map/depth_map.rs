@@ -554,13 +554,13 @@ fn write_depths<S: Simd>(s: S, r: &DepthResolve, tile: &TileRaster<'_>, out: Til
                 let texels = &vals[4 * rr..4 * rr + 4];
                 if s.s_branch(row.len() == 4) {
                     s.scalar_op(ScalarClass::Mem);
-                    s.scalar_op(ScalarClass::Mem);
+                    s.scalar_op(ScalarClass::Store);
                     let whole: &mut [MaybeUninit<f32>; 4] = (&mut *row).try_into().expect("a row of 4");
                     *whole = [texels[0], texels[1], texels[2], texels[3]].map(MaybeUninit::new);
                 } else {
                     for (cc, texel) in row.iter_mut().enumerate() {
                         s.scalar_op(ScalarClass::Mem);
-                        s.scalar_op(ScalarClass::Mem);
+                        s.scalar_op(ScalarClass::Store);
                         texel.write(texels[cc]);
                     }
                 }

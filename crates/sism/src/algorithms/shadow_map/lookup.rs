@@ -156,7 +156,7 @@ pub(crate) fn project<S: Simd>(
         nrm[1][lane] = n.y;
         nrm[2][lane] = n.z;
         for _ in 0..6 {
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
     }
     s.scalar_read(&samples[..samples.len().min(16)]);

@@ -166,7 +166,7 @@ impl Kernel for Classify<'_> {
             let facing = counted::dot(s, s.s_read(&r.normal), counted::neg(s, q));
             if s.s_lt(0.0, facing) && s.s_lt(0.0, counted::dot(s, q, q)) {
                 self.values[k] = 1.0;
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
                 s.s_push(&mut out.q, q);
                 s.s_push(
                     &mut out.cos_theta,
@@ -175,7 +175,7 @@ impl Kernel for Classify<'_> {
                 s.s_push(&mut out.pixel, s.s_add(self.first_pixel, k as u32));
             } else {
                 self.values[k] = V_FACING_AWAY;
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
             }
         }
         // The values' lines (their stores are counted above); the pushes recorded their own.
@@ -235,7 +235,7 @@ impl Kernel for FaceCount<'_> {
             let f = counted::streamed(s, self.face_of, i) as usize;
             let c = counted::streamed(s, &counts, f);
             counts[f] = s.s_add(c, 1);
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.end_task();
         counts
@@ -263,7 +263,7 @@ impl Kernel for FaceScatter<'_> {
             let at = counted::streamed(s, &self.next, f);
             s.s_store(self.order, at as usize, s.s_add(self.first, k as u32));
             self.next[f] = s.s_add(at, 1);
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.end_task();
     }
@@ -323,15 +323,15 @@ impl Kernel for Project<'_> {
                 cos_theta,
             });
             for _ in 0..6 {
-                s.scalar_op(ScalarClass::Mem);
+                s.scalar_op(ScalarClass::Store);
             }
             let len = counted::length(s, q);
             let f = face as usize;
             let cos = s.s_div(depth, len);
             b.cos_min[f] = s.s_min(counted::streamed(s, &b.cos_min, f), cos);
             b.dist_min[f] = s.s_min(counted::streamed(s, &b.dist_min, f), len);
-            s.scalar_op(ScalarClass::Mem);
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
+            s.scalar_op(ScalarClass::Store);
         }
         s.scalar_touch(self.out.as_ptr() as usize, std::mem::size_of_val(self.out), true);
         s.end_task();

@@ -229,7 +229,7 @@ impl Kernel for CubeFaces<'_> {
         // Counted per point: its load, the face test and the id's store (its line below).
         for i in 0..self.points.len() {
             self.ids[i] = cube_face_of_counted(s, counted::streamed(s, self.points, i)) as u8;
-            s.scalar_op(ScalarClass::Mem);
+            s.scalar_op(ScalarClass::Store);
         }
         s.scalar_write(self.ids);
         s.end_task();

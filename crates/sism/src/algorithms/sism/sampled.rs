@@ -1100,7 +1100,7 @@ fn light_points_into<S: Simd>(
         s.scalar_op(ScalarClass::Mem);
         s.scalar_op(ScalarClass::Mem);
         *o = counted::add(s, counted::scale(s, e1, px), counted::scale(s, e2, py));
-        s.scalar_op(ScalarClass::Mem);
+        s.scalar_op(ScalarClass::Store);
     }
 }
 
