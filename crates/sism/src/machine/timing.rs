@@ -1253,6 +1253,48 @@ mod tests {
     }
 
     #[test]
+    fn the_store_buffer_bounds_write_misses_by_stores_per_line() {
+        let mut m = MachineConfig::larrabee_24();
+        // Larrabee: not modelled (no entries, and one miss at a time already).
+        let fields = Counters {
+            scalar_stores: 1600,
+            ..Default::default()
+        };
+        assert_eq!(StoreBuffer::of(&fields, 100, 1000, &m), None);
+        m.memory_parallelism = 16.0;
+        m.store_buffer_entries = 112;
+        // 16 scalar stores a written line: 112 / 16 = 7 lines in flight; 112 stores take 70 of
+        // the task's 1000 cycles.
+        let b = StoreBuffer::of(&fields, 100, 1000, &m).expect("modelled");
+        assert_eq!(b.parallelism, 7.0);
+        assert_eq!(b.fill_cycles, 70.0);
+        // One 64-byte vector store a line: bounded by the misses a thread keeps in flight.
+        let lines = Counters {
+            store: 100,
+            ..Default::default()
+        };
+        assert_eq!(
+            StoreBuffer::of(&lines, 100, 1000, &m)
+                .expect("modelled")
+                .parallelism,
+            16.0
+        );
+        // Stores far apart from their misses: at least one line.
+        let sparse = Counters {
+            scalar_stores: 100_000,
+            ..Default::default()
+        };
+        assert_eq!(
+            StoreBuffer::of(&sparse, 10, 1000, &m)
+                .expect("modelled")
+                .parallelism,
+            1.0
+        );
+        // Nothing missed: nothing to bound.
+        assert_eq!(StoreBuffer::of(&fields, 0, 1000, &m), None);
+    }
+
+    #[test]
     fn compute_cost_hand_case() {
         let m = MachineConfig::larrabee_24();
         let c = Counters {
