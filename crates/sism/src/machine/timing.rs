@@ -353,6 +353,13 @@ pub fn mispredict_cycles(c: &Counters, m: &MachineConfig) -> u64 {
     (c.branch_mispredicts as f64 * m.mispredict_cycles).ceil() as u64
 }
 
+/// Latency cycles that `hits` misses of a level `lat` cycles away pay: all but the `streamed` ones
+/// (a throughput, charged apart), and the `young` streams' ones `share` of it.
+#[inline]
+fn paid_latency(hits: u64, streamed: u64, young: u64, share: f64, lat: u64) -> f64 {
+    ((hits - streamed - young) as f64 + young as f64 * share) * lat as f64
+}
+
 /// What a task's store buffer does to its write misses ([`StoreBuffer::of`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StoreBuffer {
@@ -632,10 +639,7 @@ impl<'a> Machine<'a> {
             ([0; 3], [0; 3])
         };
         let share = m.stream_ramp_share;
-        let level = |hits: u64, k: usize, lat: u64| {
-            let random = hits - streamed[k] - young[k];
-            (random as f64 + young[k] as f64 * share) * lat as f64
-        };
+        let level = |hits: u64, k: usize, lat: u64| paid_latency(hits, streamed[k], young[k], share, lat);
         let latency = (tally.l1_hits.saturating_mul(l1_lat)).saturating_add(
             (level(tally.l2_hits, 0, l2_lat)
                 + level(tally.l3_hits, 1, m.l3_latency as u64)
@@ -654,15 +658,16 @@ impl<'a> Machine<'a> {
         // than the store buffer fills overlap no more than it holds written lines
         // ([`StoreBuffer`]).
         let overlapped = if m.memory_parallelism > 1.0 {
-            let w = &tally.write_levels;
-            let (w_streamed, w_young) = if m.prefetcher {
-                (w.streamed, w.young)
-            } else {
-                ([0; 3], [0; 3])
-            };
+            // The writes' part of `latency`, priced as `level` prices all misses.
+            let (w, streams) = (&tally.write_levels, m.prefetcher as u64);
             let write_level = |k: usize, lat: u64| {
-                let random = w.hits[k] - w_streamed[k] - w_young[k];
-                (random as f64 + w_young[k] as f64 * share) * lat as f64
+                paid_latency(
+                    w.hits[k],
+                    streams * w.streamed[k],
+                    streams * w.young[k],
+                    share,
+                    lat,
+                )
             };
             // Write misses of the levels slower than the buffer fills wait in it, as many at once
             // as it holds lines; the others overlap as reads.
@@ -1268,28 +1273,23 @@ mod tests {
         let b = StoreBuffer::of(&fields, 100, 1000, &m).expect("modelled");
         assert_eq!(b.parallelism, 7.0);
         assert_eq!(b.fill_cycles, 70.0);
+        let parallelism = |c: Counters, write_misses: u64| {
+            StoreBuffer::of(&c, write_misses, 1000, &m)
+                .expect("modelled")
+                .parallelism
+        };
         // One 64-byte vector store a line: bounded by the misses a thread keeps in flight.
         let lines = Counters {
             store: 100,
             ..Default::default()
         };
-        assert_eq!(
-            StoreBuffer::of(&lines, 100, 1000, &m)
-                .expect("modelled")
-                .parallelism,
-            16.0
-        );
+        assert_eq!(parallelism(lines, 100), 16.0);
         // Stores far apart from their misses: at least one line.
         let sparse = Counters {
             scalar_stores: 100_000,
             ..Default::default()
         };
-        assert_eq!(
-            StoreBuffer::of(&sparse, 10, 1000, &m)
-                .expect("modelled")
-                .parallelism,
-            1.0
-        );
+        assert_eq!(parallelism(sparse, 10), 1.0);
         // Nothing missed: nothing to bound.
         assert_eq!(StoreBuffer::of(&fields, 0, 1000, &m), None);
     }
