@@ -134,10 +134,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let mut rows: Vec<Row> = Vec::new();
     for (k, scene) in scenes.iter().enumerate() {
         if a.calibrate_per_scene {
-            let fitted = calibrate::calibrate_host(a.calibration_rounds, &|what| {
-                bar.set_message(format!("calibrating: {what}"));
-                bar.inc(1);
-            });
+            let fitted = super::calibrate::calibrate_sound(a.calibration_rounds, &bar, "calibrating: ")
+                .with_context(|| format!("calibrating before {}", scene.source.display()))?;
             let stem = scene
                 .source
                 .file_stem()

@@ -2096,7 +2096,29 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     }
 }
 
+/// How far (as a ratio either way) a fitted benchmark's prediction may sit from its measurement
+/// before [`Calibration::unsound_fits`] calls the fit failed. A sound fit meets most of its fitted
+/// benchmarks within a percent; the worst seen in 60 calibrations on the project's Intel Xeon VM
+/// was `scalar` at 3.0× (its cost is raised to what `scalar-mix` needs). A fit in a moment when the
+/// shared-cache probe read DRAM at 250 ns instead of 176 took all 256 MiB for the shared cache and
+/// fitted a 97,660 ns DRAM: `copy-l1` came out 33× its measurement and `atomic` 170×, and every
+/// frame it predicted 60× the host.
+pub const FIT_LIMIT: f64 = 5.0;
+
 impl Calibration {
+    /// The benchmarks a cost was fitted to ([`Fits::Check`] rows excluded) whose prediction is
+    /// more than [`FIT_LIMIT`] times its measurement or less than its inverse (or not finite): the
+    /// fit failed there, and a model built on it is not the host's. Each with predicted /
+    /// measured; empty for a sound fit.
+    pub fn unsound_fits(&self) -> Vec<(&'static str, f64)> {
+        self.rows
+            .iter()
+            .filter(|(b, _, _)| b.fits != Fits::Check)
+            .map(|(b, measured, predicted)| (b.name, predicted / measured))
+            .filter(|&(_, ratio)| !(ratio.is_finite() && (1.0 / FIT_LIMIT..=FIT_LIMIT).contains(&ratio)))
+            .collect()
+    }
+
     /// The report: per benchmark what it fits, measured and predicted ns, and the error.
     pub fn table(&self) -> String {
         let mut s = format!(
@@ -2375,6 +2397,49 @@ mod tests {
         for name in MOMENT_BENCHES {
             assert!(BENCHES.iter().any(|b| b.name == name), "{name}");
         }
+    }
+
+    /// A fit of a model's own measurements is sound; a fitted benchmark predicted far from its
+    /// measurement (either way, or not at all) marks the fit failed; a check row never does.
+    #[test]
+    fn a_fit_that_misses_its_fitted_benchmarks_is_unsound() {
+        let (_, start, measured) = truth_start_measured();
+        let sound = fit(&start, &measured);
+        assert_eq!(
+            sound.unsound_fits(),
+            Vec::<(&str, f64)>::new(),
+            "{}",
+            sound.table()
+        );
+        let row = |name: &str| {
+            let b = *BENCHES.iter().find(|b| b.name == name).expect("a benchmark");
+            move |measured: f64, predicted: f64| (b, measured, predicted)
+        };
+        let cal = |rows| Calibration {
+            config: start.clone(),
+            rows,
+            shared_cache: None,
+            rounds: 1,
+        };
+        // `copy-l1` and `atomic` as the failed fit of the Intel Xeon VM had them.
+        let failed = cal(vec![
+            row("copy-l1")(204_529.0, 6_776_282.0),
+            row("atomic")(744_843.0, 126_726_475.0),
+            row("alu")(317_207.0, 317_220.0),
+            row("fresh-pages")(8_484_765.0, 100_174_430.0),
+        ]);
+        let names: Vec<&str> = failed.unsound_fits().iter().map(|u| u.0).collect();
+        assert_eq!(names, ["copy-l1", "atomic"]);
+        // Too fast is as wrong as too slow; a prediction of nothing or NaN is never sound; a
+        // miss within the limit is the fit's ordinary residue.
+        let under = cal(vec![
+            row("random-l2")(1000.0, 1000.0 / (FIT_LIMIT * 1.01)),
+            row("random-l3")(1000.0, f64::NAN),
+            row("scalar")(1000.0, 0.0),
+            row("random-dram")(1000.0, 1000.0 * FIT_LIMIT * 0.99),
+        ]);
+        let names: Vec<&str> = under.unsound_fits().iter().map(|u| u.0).collect();
+        assert_eq!(names, ["random-l2", "random-l3", "scalar"]);
     }
 
     /// Scalar float geometry that runs slower than the integer chains predict raises
