@@ -68,6 +68,17 @@ fn mapi2(a: I32x16, b: I32x16, f: impl Fn(i32, i32) -> i32) -> I32x16 {
     }
     I32x16(o)
 }
+/// `f` on every lane, as an indexed loop: `[T; 16]::map` is not always inlined (the conversions
+/// were out-of-line calls of `core::array::try_map`, lane by lane), and a loop is what LLVM
+/// vectorizes.
+#[inline(always)]
+fn lanes<T: Copy, U: Copy + Default>(a: [T; 16], f: impl Fn(T) -> U) -> [U; 16] {
+    let mut o = [U::default(); 16];
+    for i in 0..16 {
+        o[i] = f(a[i]);
+    }
+    o
+}
 #[inline(always)]
 fn cmpf(a: F32x16, b: F32x16, f: impl Fn(f32, f32) -> bool) -> Mask16 {
     let mut m = 0u16;
@@ -131,10 +142,24 @@ pub(crate) fn maxf(a: f32, b: f32) -> f32 {
     }
 }
 /// x86 `cvttps2dq`: truncate, NaN / out of range → i32::MIN.
+///
+/// Written so that LLVM vectorizes it within the kernels (two compares, a max, a min, `cvttps2dq`
+/// and a blend per 8 lanes under AVX2): the value converted is clamped into i32's range by data
+/// selects, and the result picked by one. A saturating `x as i32` inside the range test, or an
+/// unchecked conversion of `if in_range { x } else { 0.0 }`, were compiled lane by lane
+/// (`cvttss2si`, compares and branches or `cmov`s per lane): on the portable backend a `floor_i`
+/// cost about 100 instructions, where the model prices it as one vector operation.
 #[inline(always)]
 pub(crate) fn cvtt(x: f32) -> i32 {
-    if (-2_147_483_648.0..2_147_483_648.0).contains(&x) {
-        x as i32
+    let in_range = (x >= -2_147_483_648.0) & (x < 2_147_483_648.0);
+    // NaN fails both comparisons: its clamped value is -2^31. 2_147_483_520 is the largest f32
+    // below 2^31.
+    let c = if x > -2_147_483_648.0 { x } else { -2_147_483_648.0 };
+    let c = if c < 2_147_483_520.0 { c } else { 2_147_483_520.0 };
+    // SAFETY: `c` is finite and within [-2^31, 2^31 - 128], so its truncation fits an i32.
+    let t = unsafe { c.to_int_unchecked::<i32>() };
+    if in_range {
+        t
     } else {
         i32::MIN
     }
@@ -538,11 +563,11 @@ impl Simd for Portable {
     }
     #[inline(always)]
     fn reduce_min_u(self, v: I32x16) -> u32 {
-        tree(v.0.map(|x| x as u32), u32::min)
+        tree(lanes(v.0, |x| x as u32), u32::min)
     }
     #[inline(always)]
     fn reduce_max_u(self, v: I32x16) -> u32 {
-        tree(v.0.map(|x| x as u32), u32::max)
+        tree(lanes(v.0, |x| x as u32), u32::max)
     }
     #[inline(always)]
     fn reduce_or_i(self, v: I32x16) -> i32 {
@@ -571,27 +596,27 @@ impl Simd for Portable {
 
     #[inline(always)]
     fn cvt_i_f(self, a: I32x16) -> F32x16 {
-        F32x16(a.0.map(|x| x as f32))
+        F32x16(lanes(a.0, |x| x as f32))
     }
     #[inline(always)]
     fn cvt_u_f(self, a: I32x16) -> F32x16 {
-        F32x16(a.0.map(|x| x as u32 as f32))
+        F32x16(lanes(a.0, |x| x as u32 as f32))
     }
     #[inline(always)]
     fn cvtt_f_i(self, a: F32x16) -> I32x16 {
-        I32x16(a.0.map(cvtt))
+        I32x16(lanes(a.0, cvtt))
     }
     #[inline(always)]
     fn cvtr_f_i(self, a: F32x16) -> I32x16 {
-        I32x16(a.0.map(|x| cvtt(x.round_ties_even())))
+        I32x16(lanes(a.0, |x| cvtt(x.round_ties_even())))
     }
     #[inline(always)]
     fn cast_f_i(self, a: F32x16) -> I32x16 {
-        I32x16(a.0.map(|x| x.to_bits() as i32))
+        I32x16(lanes(a.0, |x| x.to_bits() as i32))
     }
     #[inline(always)]
     fn cast_i_f(self, a: I32x16) -> F32x16 {
-        F32x16(a.0.map(|x| f32::from_bits(x as u32)))
+        F32x16(lanes(a.0, |x| f32::from_bits(x as u32)))
     }
 
     crate::common::native_mask_ops!();
