@@ -28,13 +28,20 @@ pub struct I32x16(pub [i32; 16]);
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Portable;
 
+/// `f` on every lane, as an indexed loop: `[T; 16]::map` is not always inlined (the conversions
+/// were out-of-line calls of `core::array::try_map`, lane by lane), and a loop is what LLVM
+/// vectorizes.
+#[inline(always)]
+fn lanes<T: Copy, U: Copy + Default>(a: [T; 16], f: impl Fn(T) -> U) -> [U; 16] {
+    let mut o = [U::default(); 16];
+    for i in 0..16 {
+        o[i] = f(a[i]);
+    }
+    o
+}
 #[inline(always)]
 fn mapf(a: F32x16, f: impl Fn(f32) -> f32) -> F32x16 {
-    let mut o = [0f32; 16];
-    for i in 0..16 {
-        o[i] = f(a.0[i]);
-    }
-    F32x16(o)
+    F32x16(lanes(a.0, f))
 }
 #[inline(always)]
 fn mapf2(a: F32x16, b: F32x16, f: impl Fn(f32, f32) -> f32) -> F32x16 {
@@ -54,11 +61,7 @@ fn mapf3(a: F32x16, b: F32x16, c: F32x16, f: impl Fn(f32, f32, f32) -> f32) -> F
 }
 #[inline(always)]
 fn mapi(a: I32x16, f: impl Fn(i32) -> i32) -> I32x16 {
-    let mut o = [0i32; 16];
-    for i in 0..16 {
-        o[i] = f(a.0[i]);
-    }
-    I32x16(o)
+    I32x16(lanes(a.0, f))
 }
 #[inline(always)]
 fn mapi2(a: I32x16, b: I32x16, f: impl Fn(i32, i32) -> i32) -> I32x16 {
@@ -67,17 +70,6 @@ fn mapi2(a: I32x16, b: I32x16, f: impl Fn(i32, i32) -> i32) -> I32x16 {
         o[i] = f(a.0[i], b.0[i]);
     }
     I32x16(o)
-}
-/// `f` on every lane, as an indexed loop: `[T; 16]::map` is not always inlined (the conversions
-/// were out-of-line calls of `core::array::try_map`, lane by lane), and a loop is what LLVM
-/// vectorizes.
-#[inline(always)]
-fn lanes<T: Copy, U: Copy + Default>(a: [T; 16], f: impl Fn(T) -> U) -> [U; 16] {
-    let mut o = [U::default(); 16];
-    for i in 0..16 {
-        o[i] = f(a[i]);
-    }
-    o
 }
 /// The mask of 16 lane results, each 0 or -1 (all ones): bit i set where lane i is.
 ///
@@ -105,21 +97,22 @@ fn pack_signs(lanes: [i32; 16]) -> Mask16 {
         Mask16(m)
     }
 }
+/// The mask of `f` on each pair of lanes of `a` and `b`.
 #[inline(always)]
-fn cmpf(a: F32x16, b: F32x16, f: impl Fn(f32, f32) -> bool) -> Mask16 {
+fn cmp_lanes<T: Copy>(a: [T; 16], b: [T; 16], f: impl Fn(T, T) -> bool) -> Mask16 {
     let mut l = [0i32; 16];
     for i in 0..16 {
-        l[i] = -(f(a.0[i], b.0[i]) as i32);
+        l[i] = -(f(a[i], b[i]) as i32);
     }
     pack_signs(l)
 }
 #[inline(always)]
+fn cmpf(a: F32x16, b: F32x16, f: impl Fn(f32, f32) -> bool) -> Mask16 {
+    cmp_lanes(a.0, b.0, f)
+}
+#[inline(always)]
 fn cmpi(a: I32x16, b: I32x16, f: impl Fn(i32, i32) -> bool) -> Mask16 {
-    let mut l = [0i32; 16];
-    for i in 0..16 {
-        l[i] = -(f(a.0[i], b.0[i]) as i32);
-    }
-    pack_signs(l)
+    cmp_lanes(a.0, b.0, f)
 }
 #[inline(always)]
 fn blendf(src: F32x16, m: Mask16, v: F32x16) -> F32x16 {
@@ -177,7 +170,7 @@ pub(crate) fn maxf(a: f32, b: f32) -> f32 {
 /// cost about 100 instructions, where the model prices it as one vector operation.
 #[inline(always)]
 pub(crate) fn cvtt(x: f32) -> i32 {
-    let in_range = (x >= -2_147_483_648.0) & (x < 2_147_483_648.0);
+    let in_range = (-2_147_483_648.0..2_147_483_648.0).contains(&x);
     // NaN fails both comparisons: its clamped value is -2^31. 2_147_483_520 is the largest f32
     // below 2^31.
     let c = if x > -2_147_483_648.0 { x } else { -2_147_483_648.0 };
