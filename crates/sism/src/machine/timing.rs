@@ -437,6 +437,44 @@ struct Core {
     l2: Cache,
 }
 
+/// One task's replay: the core the schedule gave it, what its lines did in that core's caches, its
+/// pages ([`CacheOutcomes`]).
+#[derive(Clone, Copy, Debug)]
+struct TaskOutcome {
+    core: u32,
+    tally: LineTally,
+    pages: TaskPages,
+}
+
+/// What every task of a frame's replay did in the caches ([`simulate_frame_recorded`]), to time the
+/// same records again on a machine that differs only in its costs ([`simulate_recorded`]): the
+/// calibration's fit predicts each benchmark hundreds of times with costs moving and caches fixed,
+/// and replaying its lines each time was most of a calibration's time.
+#[derive(Clone, Debug)]
+pub struct CacheOutcomes {
+    /// The configuration's fields the replay's outcomes depend on ([`replay_geometry`]).
+    geometry: [u64; 9],
+    /// Every task's outcome, tasks in frame order.
+    tasks: Vec<TaskOutcome>,
+}
+
+/// The fields of `m` that decide what a replay's lines do (which core runs a task also depends on
+/// the costs: [`simulate_recorded`] checks that per task): cores, one-core serial steps, and each
+/// cache's size, ways and line.
+fn replay_geometry(m: &MachineConfig) -> [u64; 9] {
+    [
+        m.cores as u64,
+        m.serial_steps as u64,
+        m.l1_kb as u64,
+        m.l1_ways as u64,
+        m.l2_kb as u64,
+        m.l2_ways as u64,
+        m.l3_kb as u64,
+        m.l3_ways as u64,
+        m.line_bytes as u64,
+    ]
+}
+
 /// A task's cache outcomes so far (its lines arrive in chunks).
 #[derive(Clone, Copy, Debug, Default)]
 struct LineTally {
@@ -720,6 +758,29 @@ impl<'a> Machine<'a> {
         step: Step<'_>,
         mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])) -> TaskPages,
     ) -> PhaseReport {
+        self.run_phase_outcomes(step, |core, task, cores, l3| {
+            let mut tally = LineTally::default();
+            let pages = mapped(task, &mut |lines| {
+                tally.replay(&mut cores[core], l3.as_mut(), lines)
+            });
+            Some(TaskOutcome {
+                core: core as u32,
+                tally,
+                pages,
+            })
+        })
+        .expect("a replay gives every task's outcome")
+    }
+
+    /// [`Machine::run_phase_with`] with each task's cache outcome given by `outcome(core, task,
+    /// cores, l3)` for the core the schedule picked: a replay of its lines through the caches, or
+    /// one recorded earlier ([`simulate_recorded`]). `None` from `outcome` (a recorded outcome of
+    /// another core: the schedule went another way) ends the phase with `None`.
+    fn run_phase_outcomes(
+        &mut self,
+        step: Step<'_>,
+        mut outcome: impl FnMut(usize, &TaskRecord, &mut [Core], &mut Option<Cache>) -> Option<TaskOutcome>,
+    ) -> Option<PhaseReport> {
         let (phase, tasks) = (step.name, step.tasks);
         let m = self.config;
         let n = m.cores as usize;
@@ -743,11 +804,7 @@ impl<'a> Machine<'a> {
             } else {
                 (0..n).min_by_key(|&i| (busy[i], i)).expect("at least one core")
             };
-            let mut tally = LineTally::default();
-            let (cores, l3) = (&mut self.cores, &mut self.l3);
-            let pages = mapped(task, &mut |lines| {
-                tally.replay(&mut cores[core], l3.as_mut(), lines)
-            });
+            let TaskOutcome { tally, pages, .. } = outcome(core, task, &mut self.cores, &mut self.l3)?;
             let cost = self.finish(&task.counters, &tally, pages, busy_cores, &mut memory);
             busy[core] = busy[core].saturating_add(cost.cycles());
             schedule.push((core as u32, cost.cycles()));
@@ -771,7 +828,7 @@ impl<'a> Machine<'a> {
         // The average core's parts never exceed the busiest core's time (each is a share of the
         // summed core time, which is at most cores × busiest), so the rest is ≥ 0.
         stack.imbalance_idle = cycles.saturating_sub(stack.total());
-        PhaseReport {
+        Some(PhaseReport {
             phase: phase.to_string(),
             tasks: tasks.len() as u64,
             cycles,
@@ -782,7 +839,7 @@ impl<'a> Machine<'a> {
             counters,
             memory,
             dram_bound,
-        }
+        })
     }
 }
 
@@ -864,7 +921,59 @@ pub fn simulate_frame(config: &MachineConfig, phases: &[Step<'_>]) -> Vec<PhaseR
 pub fn simulate_frame_with(
     config: &MachineConfig,
     phases: &[Step<'_>],
+    lines: impl FnMut(&[u32], bool),
+) -> Vec<PhaseReport> {
+    simulate_pipelined(config, phases, lines, None)
+}
+
+/// [`simulate_frame`], also giving what every task did in the caches, for timing the same records
+/// on machines that differ only in costs ([`simulate_recorded`]).
+pub fn simulate_frame_recorded(
+    config: &MachineConfig,
+    phases: &[Step<'_>],
+) -> (Vec<PhaseReport>, CacheOutcomes) {
+    let mut tasks = Vec::new();
+    let reports = simulate_pipelined(config, phases, |_, _| {}, Some(&mut tasks));
+    let outcomes = CacheOutcomes {
+        geometry: replay_geometry(config),
+        tasks,
+    };
+    (reports, outcomes)
+}
+
+/// The reports [`simulate_frame`] gives for `config` and `phases`, from `outcomes` recorded by
+/// [`simulate_frame_recorded`] of the same `phases` on a configuration of the same caches and
+/// cores, without replaying a line; `None` where they cannot say: another geometry, other tasks, or
+/// a task the schedule now gives another core than it did (costs decide the schedule, and the
+/// caches' contents then differ).
+pub fn simulate_recorded(
+    config: &MachineConfig,
+    phases: &[Step<'_>],
+    outcomes: &CacheOutcomes,
+) -> Option<Vec<PhaseReport>> {
+    let total: usize = phases.iter().map(|p| p.tasks.len()).sum();
+    if outcomes.geometry != replay_geometry(config) || outcomes.tasks.len() != total {
+        return None;
+    }
+    let mut machine = Machine::new(config);
+    let mut recorded = outcomes.tasks.iter();
+    phases
+        .iter()
+        .map(|&step| {
+            machine.run_phase_outcomes(step, |core, _, _, _| {
+                let o = recorded.next()?;
+                (o.core as usize == core).then_some(*o)
+            })
+        })
+        .collect()
+}
+
+/// [`simulate_frame_with`], pushing each task's outcome to `record` when given.
+fn simulate_pipelined(
+    config: &MachineConfig,
+    phases: &[Step<'_>],
     mut lines: impl FnMut(&[u32], bool),
+    mut record: Option<&mut Vec<TaskOutcome>>,
 ) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
@@ -893,16 +1002,30 @@ pub fn simulate_frame_with(
         phases
             .iter()
             .map(|&step| {
-                machine.run_phase_with(step, |_, replay| loop {
-                    let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
-                    replay(&chunk);
-                    lines(&chunk, pages.is_some());
-                    // Hand the buffer back for reuse (the mapper may have finished).
-                    let _ = empty_tx.send(chunk);
-                    if let Some(pages) = pages {
-                        break pages;
-                    }
-                })
+                machine
+                    .run_phase_outcomes(step, |core, _, cores, l3| {
+                        let mut tally = LineTally::default();
+                        let pages = loop {
+                            let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
+                            tally.replay(&mut cores[core], l3.as_mut(), &chunk);
+                            lines(&chunk, pages.is_some());
+                            // Hand the buffer back for reuse (the mapper may have finished).
+                            let _ = empty_tx.send(chunk);
+                            if let Some(pages) = pages {
+                                break pages;
+                            }
+                        };
+                        let outcome = TaskOutcome {
+                            core: core as u32,
+                            tally,
+                            pages,
+                        };
+                        if let Some(r) = record.as_deref_mut() {
+                            r.push(outcome);
+                        }
+                        Some(outcome)
+                    })
+                    .expect("a replay gives every task's outcome")
             })
             .collect()
     })
