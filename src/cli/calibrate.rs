@@ -62,7 +62,9 @@ const FIT_ATTEMPTS: usize = 3;
 /// [`calibrate::calibrate_host`] with `rounds` passes, measured and fitted again while the fit
 /// fails ([`calibrate::Calibration::unsound_fits`]), up to [`FIT_ATTEMPTS`] times; an error naming
 /// the benchmarks the last fit missed when none is sound, so that no model of a failed fit is
-/// written or used. `bar` counts one calibration's steps ([`calibrate::calibrate_host_steps`]) and
+/// written or used. A fit that misses what the one before it missed, by the same factors
+/// ([`calibrate::Calibration::repeats_misses`]), is used with a warning: the host's moment does not
+/// repeat itself, the model's limits do. `bar` counts one calibration's steps ([`calibrate::calibrate_host_steps`]) and
 /// is wound back for another; its messages start with `label`.
 pub(super) fn calibrate_sound(
     rounds: usize,
@@ -71,6 +73,7 @@ pub(super) fn calibrate_sound(
 ) -> anyhow::Result<calibrate::Calibration> {
     let start = bar.position();
     let mut why = String::new();
+    let mut earlier = Vec::new();
     for attempt in 1..=FIT_ATTEMPTS {
         bar.set_position(start);
         let fitted = calibrate::calibrate_host(rounds, &|what| {
@@ -85,6 +88,18 @@ pub(super) fn calibrate_sound(
             .iter()
             .map(|(name, ratio)| format!("`{name}` predicted at {ratio:.2}× its measurement"))
             .collect();
+        // The same misses twice: the model's limit on this host, not its moment (the table in
+        // the machine file shows them).
+        if fitted.repeats_misses(&earlier) {
+            bar.suspend(|| {
+                note!(
+                    "warning: the calibration missed the same benchmarks by the same factor twice ({}):                      the model cannot describe them on this host; using the fit",
+                    misses.join(", ")
+                )
+            });
+            return Ok(fitted);
+        }
+        earlier = unsound;
         let probe = fitted
             .shared_cache
             .as_ref()
