@@ -93,7 +93,7 @@ pub(super) fn calibrate_sound(
         if fitted.repeats_misses(&earlier) {
             bar.suspend(|| {
                 note!(
-                    "warning: the calibration missed the same benchmarks by the same factor twice ({}):                      the model cannot describe them on this host; using the fit",
+                    "warning: the calibration missed the same benchmarks by the same factor twice ({}): the model cannot describe them on this host; using the fit",
                     misses.join(", ")
                 )
             });
