@@ -64,8 +64,9 @@ const FIT_ATTEMPTS: usize = 3;
 /// the benchmarks the last fit missed when none is sound, so that no model of a failed fit is
 /// written or used. A fit that misses what the one before it missed, by the same factors
 /// ([`calibrate::Calibration::repeats_misses`]), is used with a warning: the host's moment does not
-/// repeat itself, the model's limits do. `bar` counts one calibration's steps ([`calibrate::calibrate_host_steps`]) and
-/// is wound back for another; its messages start with `label`.
+/// repeat itself, the model's limits do. `bar` counts one calibration's steps
+/// ([`calibrate::calibrate_host_steps`]) and is wound back for another; its messages start with
+/// `label`.
 pub(super) fn calibrate_sound(
     rounds: usize,
     bar: &sism::progress::Bar,

@@ -743,7 +743,11 @@ impl<'a> Machine<'a> {
         let step = Step::parallel(phase, tasks);
         let mut ids = std::mem::take(&mut self.ids);
         let mut chunk = Vec::new();
-        let r = self.run_phase_with(step, |task, replay| ids.map(task, false, &mut chunk, replay));
+        let r = self.run_phase_with(
+            step,
+            |task, replay| ids.map(task, false, &mut chunk, replay),
+            None,
+        );
         self.ids = ids;
         r
     }
@@ -752,22 +756,27 @@ impl<'a> Machine<'a> {
     /// calls `replay` with the task's ids ([`LineMapper::map`]'s encoding) chunk by chunk, in order
     /// and returns the task's pages (tasks
     /// are asked for in record order). The pipelined replay ([`simulate_frame`]) maps lines on
-    /// another thread.
+    /// another thread. Each task's outcome is also pushed to `record` when given.
     fn run_phase_with(
         &mut self,
         step: Step<'_>,
         mut mapped: impl FnMut(&TaskRecord, &mut dyn FnMut(&[u32])) -> TaskPages,
+        mut record: Option<&mut Vec<TaskOutcome>>,
     ) -> PhaseReport {
         self.run_phase_outcomes(step, |core, task, cores, l3| {
             let mut tally = LineTally::default();
             let pages = mapped(task, &mut |lines| {
                 tally.replay(&mut cores[core], l3.as_mut(), lines)
             });
-            Some(TaskOutcome {
+            let outcome = TaskOutcome {
                 core: core as u32,
                 tally,
                 pages,
-            })
+            };
+            if let Some(r) = record.as_deref_mut() {
+                r.push(outcome);
+            }
+            Some(outcome)
         })
         .expect("a replay gives every task's outcome")
     }
@@ -1002,30 +1011,20 @@ fn simulate_pipelined(
         phases
             .iter()
             .map(|&step| {
-                machine
-                    .run_phase_outcomes(step, |core, _, cores, l3| {
-                        let mut tally = LineTally::default();
-                        let pages = loop {
-                            let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
-                            tally.replay(&mut cores[core], l3.as_mut(), &chunk);
-                            lines(&chunk, pages.is_some());
-                            // Hand the buffer back for reuse (the mapper may have finished).
-                            let _ = empty_tx.send(chunk);
-                            if let Some(pages) = pages {
-                                break pages;
-                            }
-                        };
-                        let outcome = TaskOutcome {
-                            core: core as u32,
-                            tally,
-                            pages,
-                        };
-                        if let Some(r) = record.as_deref_mut() {
-                            r.push(outcome);
+                machine.run_phase_with(
+                    step,
+                    |_, replay| loop {
+                        let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
+                        replay(&chunk);
+                        lines(&chunk, pages.is_some());
+                        // Hand the buffer back for reuse (the mapper may have finished).
+                        let _ = empty_tx.send(chunk);
+                        if let Some(pages) = pages {
+                            break pages;
                         }
-                        Some(outcome)
-                    })
-                    .expect("a replay gives every task's outcome")
+                    },
+                    record.as_deref_mut(),
+                )
             })
             .collect()
     })
@@ -1075,13 +1074,17 @@ pub fn simulate_decoded(
     phases
         .iter()
         .map(|&step| {
-            machine.run_phase_with(step, |_, replay| {
-                let (span, pages) = task.next().expect("one span per task of the same phases");
-                for chunk in lines.ids[span[0]..span[1]].chunks(CHUNK_LINES) {
-                    replay(chunk);
-                }
-                *pages
-            })
+            machine.run_phase_with(
+                step,
+                |_, replay| {
+                    let (span, pages) = task.next().expect("one span per task of the same phases");
+                    for chunk in lines.ids[span[0]..span[1]].chunks(CHUNK_LINES) {
+                        replay(chunk);
+                    }
+                    *pages
+                },
+                None,
+            )
         })
         .collect()
 }
