@@ -4,14 +4,19 @@
 use crate::record::{Counters, LineEncoder, TaskRecord, NO_TASK};
 use crate::simd::{BackendKind, Simd};
 use crate::Mask16;
-use core::cell::RefCell;
+use core::cell::UnsafeCell;
 use core::sync::atomic::AtomicI32;
 
 /// Collects [`TaskRecord`]s for one thread. Not `Sync`: use one per worker
 /// thread (or per task) and merge the records afterwards.
 #[derive(Debug)]
 pub struct Recorder {
-    st: RefCell<State>,
+    /// The state, reached only through [`Recorder::with`]: every counted operation goes through it,
+    /// and a `RefCell`'s borrow flag was a few percent of a counted frame's host time.
+    st: UnsafeCell<State>,
+    /// Debug builds check that no access to the state nests in another.
+    #[cfg(debug_assertions)]
+    busy: core::cell::Cell<bool>,
 }
 
 #[derive(Debug)]
@@ -27,13 +32,14 @@ struct State {
     /// host thread made it and whatever ran there before: critical paths do not depend on the
     /// pool's scheduling.
     epoch: u64,
-    /// Largest depth produced in the current epoch, relative to its start.
+    /// Largest depth of a reduction's result in the current epoch, relative to its start (the
+    /// issued operations' largest is `retired`; [`State::path`] is the larger of the two).
     top: u64,
     /// Retirement depths of the last [`WINDOW`] vector and counted scalar operations (a ring;
     /// `issued` mod [`WINDOW`] is the oldest): an operation enters the window only when the one
     /// [`WINDOW`] before it has retired. Retirement is in order: an operation retires when it and every
     /// earlier one have completed.
-    window: Box<[u64; WINDOW]>,
+    window: [u64; WINDOW],
     /// Retirement depth of the latest operation (the running maximum of completions).
     retired: u64,
     /// Vector and counted scalar operations issued (indexes the window ring).
@@ -207,8 +213,16 @@ impl State {
         self.retired = self.retired.max(depth);
         self.window[slot] = self.retired;
         self.issued += 1;
-        self.top = self.top.max(depth);
+        // `retired` is the running maximum of every result's depth, so the task's path is the
+        // larger of it and `top` ([`State::path`]), not a third read-modify-write per operation.
         depth
+    }
+
+    /// The current epoch's longest chain: every issued result's (`retired`, their running
+    /// maximum) and the reductions' ones (`top`).
+    #[inline]
+    fn path(&self) -> u64 {
+        self.top.max(self.retired)
     }
 
     /// Counts `n` operations into the current stretch; a full stretch ([`WINDOW`] operations)
@@ -254,7 +268,9 @@ impl Recorder {
     /// `record_lines = false` keeps only the counters (faster, smaller).
     pub fn with_lines(record_lines: bool) -> Self {
         Recorder {
-            st: RefCell::new(State {
+            #[cfg(debug_assertions)]
+            busy: core::cell::Cell::new(false),
+            st: UnsafeCell::new(State {
                 kind: NO_TASK,
                 c: Counters::default(),
                 enc: LineEncoder::default(),
@@ -264,7 +280,7 @@ impl Recorder {
                 scalars: Box::new([(0, 0); SCALAR_SLOTS]),
                 predictor: Default::default(),
                 top: 0,
-                window: Box::new([0; WINDOW]),
+                window: [0; WINDOW],
                 retired: 0,
                 issued: 0,
                 stack: StackLines::default(),
@@ -279,57 +295,84 @@ impl Recorder {
     /// encloses every frame of the kernel and holds no data the kernel accesses with counted
     /// operations ([`crate::run_counting`] marks its own frame).
     pub fn mark_stack(&self, addr: usize) {
-        let mut st = self.st.borrow_mut();
-        st.stack.reset(line_of(addr));
+        self.with(|st| st.stack.reset(line_of(addr)));
     }
 
     /// Start a task (files the current one first if it recorded anything).
     pub fn begin_task(&self, kind: u32) {
-        let mut st = self.st.borrow_mut();
-        if st.c != Counters::default() || !st.enc.is_empty() {
-            let r = take(&mut st);
-            st.done.push(r);
-        }
-        // The task's own epoch: what was made before it is ready when it begins.
-        st.start_epoch();
-        st.kind = kind;
+        self.with(|st| {
+            if st.c != Counters::default() || !st.enc.is_empty() {
+                let r = take(st);
+                st.done.push(r);
+            }
+            // The task's own epoch: what was made before it is ready when it begins.
+            st.start_epoch();
+            st.kind = kind;
+        })
     }
 
     /// End the current task and return its record (not filed).
     pub fn finish_task(&self) -> TaskRecord {
-        take(&mut self.st.borrow_mut())
+        self.with(take)
     }
 
     /// End the current task and file its record.
     pub fn end_task(&self) {
-        let mut st = self.st.borrow_mut();
-        let r = take(&mut st);
-        st.done.push(r);
+        self.with(|st| {
+            let r = take(st);
+            st.done.push(r);
+        })
     }
 
     /// Counters of the task in progress.
     pub fn current(&self) -> Counters {
-        let st = self.st.borrow();
-        Counters {
-            critical_path: st.top,
+        self.with(|st| Counters {
+            critical_path: st.path(),
             ..st.c
-        }
+        })
     }
 
     /// Take the filed records, plus the one in progress if it recorded
-    /// anything (as a record of kind [`NO_TASK`] or its begun kind).
+    /// anything (as a record of kind [`NO_TASK`] or its begun kind). The recorder is then as a
+    /// new one would be for the next task: a fresh epoch, no kind, an untrained predictor; it can
+    /// be reused (its tables are not made again).
     pub fn take_tasks(&self) -> Vec<TaskRecord> {
-        let mut st = self.st.borrow_mut();
-        if st.c != Counters::default() || !st.enc.is_empty() {
-            let r = take(&mut st);
-            st.done.push(r);
-        }
-        core::mem::take(&mut st.done)
+        self.with(|st| {
+            if st.c != Counters::default() || !st.enc.is_empty() {
+                let r = take(st);
+                st.done.push(r);
+            } else {
+                // A begun task that recorded nothing: its kind and epoch end here too.
+                st.kind = NO_TASK;
+                st.stretch_ops = 0;
+                st.stretch_start = Counters::default();
+                st.start_epoch();
+            }
+            core::mem::take(&mut st.done)
+        })
     }
 
+    /// Runs `f` on the state. Every access to the state goes through here, and no `f` reaches the
+    /// recorder again (they are this module's closures over the state alone), so the exclusive
+    /// borrow is never aliased; debug builds check it.
     #[inline(always)]
     fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
-        f(&mut self.st.borrow_mut())
+        #[cfg(debug_assertions)]
+        {
+            assert!(
+                !self.busy.replace(true),
+                "sism-simd: nested access to a recorder's state"
+            );
+            // SAFETY: as below, and the flag just checked that no other access is in progress.
+            let r = f(unsafe { &mut *self.st.get() });
+            self.busy.set(false);
+            r
+        }
+        // SAFETY: `Recorder` is not `Sync` (`UnsafeCell`), so only this thread reaches the state,
+        // and only through `with`, whose closures never call back into the recorder: this is the
+        // only reference to the state while `f` runs.
+        #[cfg(not(debug_assertions))]
+        f(unsafe { &mut *self.st.get() })
     }
 }
 
@@ -340,7 +383,7 @@ fn take(st: &mut State) -> TaskRecord {
     }
     st.stretch_start = Counters::default();
     // The task's longest chain; the next task's chains start above every value made so far.
-    st.c.critical_path = st.top;
+    st.c.critical_path = st.path();
     st.start_epoch();
     let r = TaskRecord {
         kind: st.kind,

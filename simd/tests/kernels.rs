@@ -330,3 +330,78 @@ fn record_size_is_compact() {
         "interleaved streams should cost ~1 B/line"
     );
 }
+
+/// A kernel whose records depend on every part of a recorder's state: data-dependent branches
+/// (the predictor), scalar chains (the depth table), a stack array (the stack renaming) and a task
+/// that records nothing after its kind is set.
+struct BranchyStack<'a> {
+    xs: &'a [f32],
+    out: &'a mut [f32],
+}
+
+impl sism_simd::Kernel for BranchyStack<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: sism_simd::Simd>(self, s: S) {
+        s.begin_task(7);
+        let mut acc = 0.0f32;
+        let mut lanes = [0.0f32; 16];
+        for (i, &x) in self.xs.iter().enumerate() {
+            if s.s_lt(x, 0.5) {
+                acc = s.s_add(acc, x);
+            } else {
+                acc = s.s_mul(acc, 0.5);
+            }
+            lanes[i % 16] = acc;
+            if i % 16 == 15 {
+                let v = s.load_f(&lanes);
+                s.store_f(&mut self.out[i - 15..=i], v);
+            }
+        }
+        s.begin_task(8);
+    }
+}
+
+#[test]
+fn a_reused_recorder_records_what_fresh_ones_do() {
+    let n = 4096;
+    let (xs, ys) = points(n, 11);
+    let t = tris(5);
+    let mut out_i = vec![0; n];
+    let mut out_f = vec![0.0; n];
+    let shared = Recorder::new();
+    // Each kernel in turn on one recorder, or on a fresh recorder each; twice over, so the reused
+    // recorder carries the branch history and stack lines of the kernels before.
+    let mut runs = |reuse: bool| {
+        let mut all = Vec::new();
+        for k in 0..4 {
+            let fresh;
+            let rec = if reuse {
+                &shared
+            } else {
+                fresh = Recorder::new();
+                &fresh
+            };
+            if k % 2 == 0 {
+                let out = &mut out_f[..];
+                sism_simd::run_counting(rec, BranchyStack { xs: &xs, out });
+            } else {
+                let out = &mut out_i[..];
+                let k = PointInTriangles {
+                    xs: &xs,
+                    ys: &ys,
+                    tris: &t,
+                    out,
+                };
+                sism_simd::run_counting(rec, k);
+            }
+            all.push(rec.take_tasks());
+        }
+        all
+    };
+    let fresh = runs(false);
+    let reused = runs(true);
+    assert!(fresh[0][0].counters.branch_mispredicts > 0);
+    assert_eq!(fresh[0].len(), 1, "the empty task 8 files no record");
+    assert_eq!(fresh, reused);
+}

@@ -54,16 +54,36 @@ pub fn counting<K: Kernel>(recorder: &Recorder, k: K) -> K::Output {
     return sism_simd::run_counting_lean(recorder, k);
 }
 
+std::thread_local! {
+    /// Recorders of finished tasks, for the next task on the same thread. A recorder's tables
+    /// (about 70 KB: scalar depths, branch predictor, stack renaming) made fresh for each task
+    /// were a tenth of a counted frame's host time, all of it the kernel zeroing new pages: frees
+    /// are held during a counted frame ([`sism_simd::HoldFrees`]), so every new table is new
+    /// memory. A recorder starts every task from the same state (a fresh epoch, an untrained
+    /// predictor, no stack lines), so reusing one changes no record.
+    static RECORDERS: core::cell::RefCell<Vec<Recorder>> = const { core::cell::RefCell::new(Vec::new()) };
+}
+
+/// Recorders kept per thread (a task run inside another task's kernel takes a second one).
+const RECORDERS_KEPT: usize = 4;
+
 /// Runs kernel `k` as one task under `exec`: its output and, under [`Exec::Counting`], its records
-/// (a fresh recorder per task: recorders are per thread).
+/// (recorders are per thread: one of the thread's, reused task after task).
 #[inline]
 pub fn run_task<K: Kernel>(exec: Exec, k: K) -> (K::Output, Vec<TaskRecord>) {
     match exec {
         Exec::Native => (native(k), Vec::new()),
         Exec::Counting => {
-            let recorder = Recorder::new();
+            let recorder = RECORDERS.with(|r| r.borrow_mut().pop()).unwrap_or_default();
             let out = counting(&recorder, k);
-            (out, recorder.take_tasks())
+            let records = recorder.take_tasks();
+            RECORDERS.with(|r| {
+                let mut r = r.borrow_mut();
+                if r.len() < RECORDERS_KEPT {
+                    r.push(recorder);
+                }
+            });
+            (out, records)
         }
     }
 }
