@@ -237,17 +237,28 @@ impl TaskRecord {
     /// counter in [`Counters::FIELDS`] order, line count, last line,
     /// stream byte length) followed by the stream bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(32 + self.lines.bytes.len());
+        let mut out = Vec::with_capacity(self.bytes_bound());
+        self.write_bytes(&mut out);
+        out
+    }
+
+    /// At least the length of [`TaskRecord::to_bytes`] (a bound for reserving space).
+    pub fn bytes_bound(&self) -> usize {
+        // Magic, version, four varints of at most 10 bytes, the counters at most 10 each.
+        2 + 4 * 10 + 10 * Counters::FIELDS.len() + self.lines.bytes.len()
+    }
+
+    /// Appends [`TaskRecord::to_bytes`] to `out` (without a copy of its own).
+    pub fn write_bytes(&self, out: &mut Vec<u8>) {
         out.push(MAGIC);
         out.push(VERSION);
-        put_varint(&mut out, self.kind as u64);
-        put_varint(&mut out, Counters::FIELDS.len() as u64);
-        self.counters.write(&mut out);
-        put_varint(&mut out, self.lines.count);
-        put_varint(&mut out, self.lines.last);
-        put_varint(&mut out, self.lines.bytes.len() as u64);
+        put_varint(out, self.kind as u64);
+        put_varint(out, Counters::FIELDS.len() as u64);
+        self.counters.write(out);
+        put_varint(out, self.lines.count);
+        put_varint(out, self.lines.last);
+        put_varint(out, self.lines.bytes.len() as u64);
         out.extend_from_slice(&self.lines.bytes);
-        out
     }
 
     /// Inverse of [`TaskRecord::to_bytes`]; returns the record and the
