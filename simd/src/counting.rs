@@ -218,6 +218,16 @@ impl State {
         depth
     }
 
+    /// Files the current task's record if it recorded anything; returns whether it did.
+    fn file_task(&mut self) -> bool {
+        let recorded = self.c != Counters::default() || !self.enc.is_empty();
+        if recorded {
+            let r = take(self);
+            self.done.push(r);
+        }
+        recorded
+    }
+
     /// The current epoch's longest chain: every issued result's (`retired`, their running
     /// maximum) and the reductions' ones (`top`).
     #[inline]
@@ -301,10 +311,7 @@ impl Recorder {
     /// Start a task (files the current one first if it recorded anything).
     pub fn begin_task(&self, kind: u32) {
         self.with(|st| {
-            if st.c != Counters::default() || !st.enc.is_empty() {
-                let r = take(st);
-                st.done.push(r);
-            }
+            st.file_task();
             // The task's own epoch: what was made before it is ready when it begins.
             st.start_epoch();
             st.kind = kind;
@@ -338,14 +345,10 @@ impl Recorder {
     /// be reused (its tables are not made again).
     pub fn take_tasks(&self) -> Vec<TaskRecord> {
         self.with(|st| {
-            if st.c != Counters::default() || !st.enc.is_empty() {
-                let r = take(st);
-                st.done.push(r);
-            } else {
-                // A begun task that recorded nothing: its kind and epoch end here too.
+            if !st.file_task() {
+                // A begun task that recorded nothing (no counters, so no stretch either): its
+                // kind and epoch end here too.
                 st.kind = NO_TASK;
-                st.stretch_ops = 0;
-                st.stretch_start = Counters::default();
                 st.start_epoch();
             }
             core::mem::take(&mut st.done)
