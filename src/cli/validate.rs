@@ -118,14 +118,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .flatten()
         .map(|t| calibrate::evidence_from_toml(&t))
         .unwrap_or_default();
-    let runs = (scenes.len() * algos.len()) as u64;
+    // validate_scene's progress calls: a counted frame per algorithm, a warm-up and `frames`
+    // rounds per thread count.
+    let per_scene = algos.len() as u64 + threads.len() as u64 * (a.frames as u64 + 1);
     let calibrations = if a.calibrate_per_scene {
         scenes.len() as u64 * calibrate::calibrate_host_steps(a.calibration_rounds)
     } else {
         0
     };
     let bar = sism::progress::bar(
-        runs * (1 + threads.len() as u64) + 2 + calibrations,
+        scenes.len() as u64 * per_scene + 2 + calibrations,
         "validating",
         !a.quiet,
     );
@@ -155,20 +157,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             moment_start = Some(calibrate::moment(&model));
             bar.inc(1);
         }
-        for (algo, params) in &algos {
-            rows.extend(validate::validate(
-                scene,
-                algo,
-                params,
-                &model,
-                &threads,
-                a.frames,
-                &|what| {
-                    bar.set_message(what);
-                    bar.inc(1);
-                },
-            )?);
-        }
+        rows.extend(validate::validate_scene(
+            scene,
+            &algos,
+            &model,
+            &threads,
+            a.frames,
+            &|what| {
+                bar.set_message(what);
+                bar.inc(1);
+            },
+        )?);
     }
     let moment_start = moment_start.unwrap_or_default();
     bar.set_message("the host's moment (end)");
@@ -176,7 +175,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let md = format!(
         "Model `{}`{} against the host ({} GHz), {}×{} where given, backend {}; predicted / measured host ms \
-         per major phase and per frame (a phase: its steps' work; the frame: the phases the model times).\n\n{}\n{}",
+         per major phase and per frame (a phase: its steps' work; the frame: the phases the model times); \
+         a scene's algorithms' native frames timed interleaved, {} rounds after a warm-up.\n\n{}\n{}\n{}",
         model.name,
         if a.calibrate_per_scene {
             ", calibrated right before each scene (`calibration-K-SCENE.toml`)"
@@ -187,7 +187,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.width.map(|w| w.to_string()).unwrap_or_else(|| "scene".into()),
         a.height.map(|h| h.to_string()).unwrap_or_else(|| "scene".into()),
         sism_simd::selected_backend().name(),
+        a.frames,
         validate::moment_markdown(&evidence, &moment_start, &moment_end),
+        validate::shared_work_markdown(&rows, a.tolerance),
         validate::markdown(&rows, a.tolerance)
     );
     write_file(&out.join("validate.csv"), &validate::csv(&rows))?;

@@ -209,6 +209,13 @@ fn validate_tabulates_predicted_against_measured_per_phase() {
             .unwrap_or_else(|| panic!("no moment row for {name} in\n{md}"));
         assert_eq!(row.matches('|').count(), 5, "{row}");
     }
+    // The two algorithms share the eye pass (the same model time): its spread across them is shown.
+    let eye = md
+        .lines()
+        .find(|l| l.starts_with("| plate | 1 | eye_pass | 2 | "))
+        .unwrap_or_else(|| panic!("no shared eye pass row in\n{md}"));
+    assert!(eye.trim_end().ends_with('|') && eye.contains('%'), "{eye}");
+    assert!(md.contains("largest spread of the same work: "), "{md}");
     let last: Vec<&str> = md.trim_end().lines().rev().take(2).collect();
     assert!(last[1].starts_with("mean |error|: "), "{md}");
     assert!(last[0].starts_with("within ±25%: "), "{md}");

@@ -1,17 +1,19 @@
 //! `sism validate`: the machine model checked against the one chip we can measure.
 //!
-//! A frame is rendered natively on the host (a warm-up frame, then the median of `frames` frames'
-//! per-phase wall times, on a pool of `t` host threads) and once under the counting context; its
-//! records are replayed on the host's model (a fitted machine file from `sism calibrate`, or the
-//! `host` preset) with `cores = t`, and the model's per-phase milliseconds are set against the
-//! measured ones. The records do not depend on the host's thread count, so one counted frame serves
-//! every thread count.
+//! A scene's algorithms are each rendered once under the counting context; the records are
+//! replayed on the host's model (a fitted machine file from `sism calibrate`, or the `host` preset)
+//! with `cores = t` for each host thread count `t`. Their native frames are then timed on a pool of
+//! `t` host threads, interleaved (a warm-up round, then `frames` rounds of one frame of every
+//! algorithm), and each phase's median wall time is set against the model's milliseconds. The
+//! records do not depend on the host's thread count, so one counted frame serves every thread count.
+//! Work the model predicts the same in several algorithms (the eye pass) shows how far the host's
+//! own speed moved during the run ([`shared_work`]).
 
 use rayon::ThreadPoolBuilder;
 
 use crate::algorithms::{Algorithm, Params, PreparedScene};
 use crate::exec::Exec;
-use crate::machine::{self, MachineConfig};
+use crate::machine::{self, MachineConfig, MachineReport};
 use crate::render::{self, RenderOptions};
 use crate::scene::Scene;
 use crate::stats::StatsReport;
@@ -77,13 +79,26 @@ pub fn summary(rows: &[Row], tolerance: f64) -> (usize, usize, f64) {
     (errors.len(), within, mean)
 }
 
-/// Validates one scene and algorithm: rows per thread count in `threads` (each 1..=host threads
-/// allowed by rayon), phases in frame order, then their steps, then `frame`. `frames` ≥ 1 native
-/// frames are timed after one warm-up frame. `progress(label)` is called before each native run.
-pub fn validate(
+/// One algorithm of a scene's validation: the algorithm and its resolved parameters.
+pub type Subject<'a> = (&'a Algorithm, Params);
+
+/// Validates one scene's algorithms: rows per algorithm (in `algorithms`' order), per thread count
+/// in `threads` (each 1..=host threads allowed by rayon), phases in frame order, then their steps,
+/// then `frame`.
+///
+/// Each algorithm's frame is counted once and replayed for every thread count. The native frames
+/// are then timed **interleaved**: per thread count, one warm-up round, then `frames` ≥ 1 rounds
+/// of one frame of every algorithm in turn (each round starting one algorithm further on), and
+/// each figure is the median over the rounds. A shared host's speed moves with its other tenants
+/// over seconds to minutes: timed one algorithm after the other, a slow minute sinks whichever
+/// algorithm it fell on (the same eye pass was seen to spread by a third across one scene's
+/// algorithms); interleaved, it falls on one round of every algorithm and the median drops it.
+///
+/// `progress(label)` is called before each counted frame and each round (warm-up included): that
+/// is `algorithms.len() + threads.len() * (frames + 1)` calls.
+pub fn validate_scene(
     scene: &Scene,
-    algorithm: &Algorithm,
-    params: &Params,
+    algorithms: &[Subject<'_>],
     model: &MachineConfig,
     threads: &[u32],
     frames: usize,
@@ -94,129 +109,161 @@ pub fn validate(
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
-    progress(&format!("{name} {} counted", algorithm.name));
-    let prepared = PreparedScene::new(scene);
-    let mut counted = render::render_prepared(
-        &prepared,
-        algorithm,
-        params,
-        &RenderOptions {
-            exec: Exec::Counting,
-            progress: false,
-        },
-    );
-    let records = std::mem::take(&mut counted.records);
-    drop(counted);
     let configs = threads
         .iter()
         .map(|&t| model_for_threads(model, t))
         .collect::<crate::Result<Vec<_>>>()?;
-    // One replay per thread count, the records' lines decoded once for all of them.
-    let reports = machine::sweep::run(&records, &configs, || ());
-    let mut rows = Vec::new();
-    for (&t, point) in threads.iter().zip(&reports) {
-        let report = &point.report;
-        progress(&format!("{name} {} native, {t} thread(s)", algorithm.name));
+    let prepared = PreparedScene::new(scene);
+    // Per algorithm, the model's report per thread count. Records are dropped once replayed (a
+    // counted frame's are hundreds of MB at 1600×1200).
+    let mut reports: Vec<Vec<MachineReport>> = Vec::with_capacity(algorithms.len());
+    for (algorithm, params) in algorithms {
+        progress(&format!("{name} {} counted", algorithm.name));
+        let mut counted = render::render_prepared(
+            &prepared,
+            algorithm,
+            params,
+            &RenderOptions {
+                exec: Exec::Counting,
+                progress: false,
+            },
+        );
+        let records = std::mem::take(&mut counted.records);
+        drop(counted);
+        // One replay per thread count, the records' lines decoded once for all of them.
+        let points = machine::sweep::run(&records, &configs, || ());
+        reports.push(points.into_iter().map(|p| p.report).collect());
+    }
+    // Per thread count, per algorithm, the timed native frames.
+    let mut times: Vec<Vec<Vec<FrameTimes>>> = Vec::with_capacity(threads.len());
+    for &t in threads {
         let pool = ThreadPoolBuilder::new()
             .num_threads(t as usize)
             .build()
             .map_err(|e| crate::Error::External(format!("cannot start {t} host threads: {e}")))?;
-        let times = pool.install(|| native_times(&prepared, algorithm, params, frames));
-        let first = rows.len();
-        let mut push = |phase: &str, measured: Option<f64>, predicted: Option<f64>| {
-            if let Some(m) = measured {
-                rows.push(Row {
-                    scene: name.clone(),
-                    algorithm: algorithm.name.to_string(),
-                    threads: t,
-                    phase: phase.to_string(),
-                    measured_ms: m,
-                    predicted_ms: predicted,
-                    major: false,
-                });
-            }
+        let round_progress = |round: usize| {
+            progress(&format!(
+                "{name} native, {t} thread(s), {}",
+                if round == 0 {
+                    "warm-up".to_string()
+                } else {
+                    format!("round {round} of {frames}")
+                }
+            ))
         };
-        let measured = |phase: &str| {
-            let key = format!("time.{phase}");
-            median(times.iter().filter_map(|f| f.stats.get(&key)))
-        };
-        // The work the model times in a phase, per native frame: its steps' time when it has
-        // steps (the rest, allocation and merging between them, is the phase's outside line),
-        // else the phase's.
-        let order = times.first().map(|f| f.order.clone()).unwrap_or_default();
-        let steps_of = |phase: &str| -> Vec<String> {
-            order
-                .iter()
-                .filter(|s| s.strip_prefix(phase).is_some_and(|rest| rest.starts_with('.')))
-                .cloned()
-                .collect()
-        };
-        let same_work = |f: &FrameTimes, phase: &str| -> Option<f64> {
-            let steps = steps_of(phase);
-            if steps.is_empty() {
-                f.stats.get(&format!("time.{phase}"))
-            } else {
-                Some(
-                    steps
-                        .iter()
-                        .filter_map(|s| f.stats.get(&format!("time.{s}")))
-                        .sum(),
-                )
-            }
-        };
-        let phases: Vec<&String> = order.iter().filter(|p| !p.contains('.')).collect();
-        let model_of = |phase: &str| report.groups.iter().find(|g| g.phase == phase).map(|g| g.ms);
-        for phase in &phases {
-            push(
-                phase,
-                median(times.iter().filter_map(|f| same_work(f, phase))),
-                model_of(phase),
-            );
-            if !steps_of(phase).is_empty() {
-                let outside = median(times.iter().filter_map(|f| {
-                    Some((f.stats.get(&format!("time.{phase}"))? - same_work(f, phase)?).max(0.0))
-                }));
-                push(&format!("{phase}.{OUTSIDE}"), outside, None);
-            }
-        }
-        // A step that runs more than once in a frame (a depth map per cube face or per light
-        // point) is one host figure, the sum of its runs: the model's runs are summed likewise.
-        let mut steps: Vec<(&str, f64)> = Vec::new();
-        for step in report.phases.iter().filter(|p| p.phase.contains('.')) {
-            match steps.iter_mut().find(|s| s.0 == step.phase) {
-                Some(s) => s.1 += step.ms,
-                None => steps.push((&step.phase, step.ms)),
-            }
-        }
-        for (step, ms) in steps {
-            push(step, measured(step), Some(ms));
-        }
-        // The frame: the work the model times, so an untimed phase is not a model error; the
-        // timed phases' work outside their steps is the frame's outside line.
-        let timed: Vec<&&String> = phases.iter().filter(|p| model_of(p).is_some()).collect();
-        let frame_measured = median(
-            times
-                .iter()
-                .map(|f| timed.iter().filter_map(|p| same_work(f, p)).sum::<f64>()),
-        );
-        let frame_outside = median(times.iter().map(|f| {
-            timed
-                .iter()
-                .filter_map(|p| Some((f.stats.get(&format!("time.{p}"))? - same_work(f, p)?).max(0.0)))
-                .sum::<f64>()
-        }));
-        push("frame", frame_measured, Some(report.frame.ms));
-        push(&format!("frame.{OUTSIDE}"), frame_outside, None);
-        // Major phases: timed, and at least MAJOR_SHARE of the frame.
-        let frame_ms = frame_measured.unwrap_or(0.0);
-        for r in &mut rows[first..] {
-            r.major = !r.phase.contains('.')
-                && r.phase != "frame"
-                && r.predicted_ms.is_some()
-                && r.measured_ms >= MAJOR_SHARE * frame_ms;
+        times.push(native_times_interleaved(
+            &pool,
+            &prepared,
+            algorithms,
+            frames,
+            &round_progress,
+        ));
+    }
+    let mut rows = Vec::new();
+    for (a, (algorithm, _)) in algorithms.iter().enumerate() {
+        for (k, &t) in threads.iter().enumerate() {
+            rows.extend(rows_of(&name, algorithm.name, t, &reports[a][k], &times[k][a]));
         }
     }
     Ok(rows)
+}
+
+/// The rows of one algorithm on `t` threads: its model `report` against its native frames' `times`.
+fn rows_of(scene: &str, algorithm: &str, t: u32, report: &MachineReport, times: &[FrameTimes]) -> Vec<Row> {
+    let mut rows = Vec::new();
+    let mut push = |phase: &str, measured: Option<f64>, predicted: Option<f64>| {
+        if let Some(m) = measured {
+            rows.push(Row {
+                scene: scene.to_string(),
+                algorithm: algorithm.to_string(),
+                threads: t,
+                phase: phase.to_string(),
+                measured_ms: m,
+                predicted_ms: predicted,
+                major: false,
+            });
+        }
+    };
+    let measured = |phase: &str| {
+        let key = format!("time.{phase}");
+        median(times.iter().filter_map(|f| f.stats.get(&key)))
+    };
+    // The work the model times in a phase, per native frame: its steps' time when it has steps
+    // (the rest, allocation and merging between them, is the phase's outside line), else the
+    // phase's.
+    let order = times.first().map(|f| f.order.clone()).unwrap_or_default();
+    let steps_of = |phase: &str| -> Vec<String> {
+        order
+            .iter()
+            .filter(|s| s.strip_prefix(phase).is_some_and(|rest| rest.starts_with('.')))
+            .cloned()
+            .collect()
+    };
+    let same_work = |f: &FrameTimes, phase: &str| -> Option<f64> {
+        let steps = steps_of(phase);
+        if steps.is_empty() {
+            f.stats.get(&format!("time.{phase}"))
+        } else {
+            Some(
+                steps
+                    .iter()
+                    .filter_map(|s| f.stats.get(&format!("time.{s}")))
+                    .sum(),
+            )
+        }
+    };
+    let phases: Vec<&String> = order.iter().filter(|p| !p.contains('.')).collect();
+    let model_of = |phase: &str| report.groups.iter().find(|g| g.phase == phase).map(|g| g.ms);
+    for phase in &phases {
+        push(
+            phase,
+            median(times.iter().filter_map(|f| same_work(f, phase))),
+            model_of(phase),
+        );
+        if !steps_of(phase).is_empty() {
+            let outside = median(times.iter().filter_map(|f| {
+                Some((f.stats.get(&format!("time.{phase}"))? - same_work(f, phase)?).max(0.0))
+            }));
+            push(&format!("{phase}.{OUTSIDE}"), outside, None);
+        }
+    }
+    // A step that runs more than once in a frame (a depth map per cube face or per light point)
+    // is one host figure, the sum of its runs: the model's runs are summed likewise.
+    let mut steps: Vec<(&str, f64)> = Vec::new();
+    for step in report.phases.iter().filter(|p| p.phase.contains('.')) {
+        match steps.iter_mut().find(|s| s.0 == step.phase) {
+            Some(s) => s.1 += step.ms,
+            None => steps.push((&step.phase, step.ms)),
+        }
+    }
+    for (step, ms) in steps {
+        push(step, measured(step), Some(ms));
+    }
+    // The frame: the work the model times, so an untimed phase is not a model error; the timed
+    // phases' work outside their steps is the frame's outside line.
+    let timed: Vec<&&String> = phases.iter().filter(|p| model_of(p).is_some()).collect();
+    let frame_measured = median(
+        times
+            .iter()
+            .map(|f| timed.iter().filter_map(|p| same_work(f, p)).sum::<f64>()),
+    );
+    let frame_outside = median(times.iter().map(|f| {
+        timed
+            .iter()
+            .filter_map(|p| Some((f.stats.get(&format!("time.{p}"))? - same_work(f, p)?).max(0.0)))
+            .sum::<f64>()
+    }));
+    push("frame", frame_measured, Some(report.frame.ms));
+    push(&format!("frame.{OUTSIDE}"), frame_outside, None);
+    // Major phases: timed, and at least MAJOR_SHARE of the frame.
+    let frame_ms = frame_measured.unwrap_or(0.0);
+    for r in &mut rows {
+        r.major = !r.phase.contains('.')
+            && r.phase != "frame"
+            && r.predicted_ms.is_some()
+            && r.measured_ms >= MAJOR_SHARE * frame_ms;
+    }
+    rows
 }
 
 /// `model` as the host run on `t` threads: `t` threads on cores of the model's `threads_per_core`
@@ -239,21 +286,32 @@ struct FrameTimes {
     order: Vec<String>,
 }
 
-/// `frames` native frames after one warm-up, on the current rayon pool.
-fn native_times(
+/// Per algorithm, `frames` native frames on `pool`, timed interleaved: one warm-up
+/// round, then `frames` rounds of one frame of every algorithm, round `r` starting at algorithm
+/// `r mod n` (so that no algorithm always follows the same one). `progress(round)` is called
+/// before each round, 0 being the warm-up.
+fn native_times_interleaved(
+    pool: &rayon::ThreadPool,
     prepared: &PreparedScene<'_>,
-    algorithm: &Algorithm,
-    params: &Params,
+    algorithms: &[Subject<'_>],
     frames: usize,
-) -> Vec<FrameTimes> {
+    progress: &dyn Fn(usize),
+) -> Vec<Vec<FrameTimes>> {
     let opts = RenderOptions {
         exec: Exec::Native,
         progress: false,
     };
-    let _ = render::render_prepared(prepared, algorithm, params, &opts);
-    (0..frames.max(1))
-        .map(|_| {
-            let stats = render::render_prepared(prepared, algorithm, params, &opts).stats;
+    let n = algorithms.len();
+    let mut times: Vec<Vec<FrameTimes>> = (0..n).map(|_| Vec::with_capacity(frames)).collect();
+    for round in 0..=frames.max(1) {
+        progress(round);
+        for k in 0..n {
+            let a = (round + k) % n;
+            let (algorithm, params) = &algorithms[a];
+            let stats = pool.install(|| render::render_prepared(prepared, algorithm, params, &opts).stats);
+            if round == 0 {
+                continue;
+            }
             let order = stats
                 .stats
                 .iter()
@@ -261,9 +319,10 @@ fn native_times(
                 .filter(|k| !matches!(*k, "frame" | "total" | "prepare_scene" | "bvh_build"))
                 .map(str::to_string)
                 .collect();
-            FrameTimes { stats, order }
-        })
-        .collect()
+            times[a].push(FrameTimes { stats, order });
+        }
+    }
+    times
 }
 
 /// The median of `values` ([`crate::metrics::median`]), `None` when there are none.
@@ -298,6 +357,116 @@ pub fn moment_markdown(evidence: &[(String, f64)], start: &[(&str, f64)], end: &
             t1.map_or("–".to_string(), |t| change(t, cal.or(Some(*t0)))),
         );
     }
+    s
+}
+
+/// Work the model predicts the same in several algorithms of one scene (the same phase on the same
+/// thread count, the same predicted ms): the same code on the same input, such as the eye
+/// pass, timed in each algorithm's frames. Its measured spread is the host's, not the model's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedWork {
+    /// Scene name.
+    pub scene: String,
+    /// Host threads.
+    pub threads: u32,
+    /// The phase.
+    pub phase: String,
+    /// The algorithms it was timed in (at least two).
+    pub algorithms: Vec<String>,
+    /// The model's time, ms (the same for all of them).
+    pub predicted_ms: f64,
+    /// The least and the most measured host time, ms.
+    pub measured_ms: (f64, f64),
+}
+
+impl SharedWork {
+    /// max / min − 1 of the measured times (0 when they agree).
+    pub fn spread(&self) -> f64 {
+        let (lo, hi) = self.measured_ms;
+        if lo > 0.0 {
+            hi / lo - 1.0
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The [`SharedWork`] in `rows`, in the order first seen. Two predictions are the same when they
+/// agree to 1e-9 relative (they come from the same records replayed on the same model).
+pub fn shared_work(rows: &[Row]) -> Vec<SharedWork> {
+    let mut groups: Vec<SharedWork> = Vec::new();
+    for r in rows {
+        let Some(p) = r.predicted_ms else { continue };
+        // Phases only, as scored: a step is a share of its phase's time and noisier.
+        if r.phase == "frame" || r.phase.contains('.') || p <= 0.0 {
+            continue;
+        }
+        let same = |g: &SharedWork| {
+            g.scene == r.scene
+                && g.threads == r.threads
+                && g.phase == r.phase
+                && (g.predicted_ms - p).abs() <= 1e-9 * p
+        };
+        match groups.iter_mut().find(|g| same(g)) {
+            Some(g) => {
+                if !g.algorithms.contains(&r.algorithm) {
+                    g.algorithms.push(r.algorithm.clone());
+                }
+                g.measured_ms.0 = g.measured_ms.0.min(r.measured_ms);
+                g.measured_ms.1 = g.measured_ms.1.max(r.measured_ms);
+            }
+            None => groups.push(SharedWork {
+                scene: r.scene.clone(),
+                threads: r.threads,
+                phase: r.phase.clone(),
+                algorithms: vec![r.algorithm.clone()],
+                predicted_ms: p,
+                measured_ms: (r.measured_ms, r.measured_ms),
+            }),
+        }
+    }
+    groups.retain(|g| g.algorithms.len() >= 2);
+    groups
+}
+
+/// The host's consistency as a table: per [`SharedWork`] its measured range across the algorithms
+/// and the spread (✗ beyond `tolerance`), with the largest spread as the closing line. A spread
+/// beyond the tolerance says the host's speed moved during the run by more than the model is
+/// asked to be right by; the rows it touches are the host's moment as much as the model's error.
+/// Empty when no work is shared (one algorithm per scene).
+pub fn shared_work_markdown(rows: &[Row], tolerance: f64) -> String {
+    let groups = shared_work(rows);
+    if groups.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "The same work timed in several algorithms (same scene, threads and phase, the same model \
+         time): its spread across them is the host's, not the model's.\n\n\
+         | scene | threads | phase | algorithms | model ms | host ms, least – most | spread |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    for g in &groups {
+        s += &format!(
+            "| {} | {} | {} | {} | {:.2} | {:.2} – {:.2} | {:.0}%{} |\n",
+            g.scene,
+            g.threads,
+            g.phase,
+            g.algorithms.len(),
+            g.predicted_ms,
+            g.measured_ms.0,
+            g.measured_ms.1,
+            100.0 * g.spread(),
+            if g.spread() > tolerance { " ✗" } else { "" }
+        );
+    }
+    let worst = groups.iter().map(SharedWork::spread).fold(0.0, f64::max);
+    let beyond = groups.iter().filter(|g| g.spread() > tolerance).count();
+    s += &format!(
+        "\nlargest spread of the same work: {:.0}%; {beyond} of {} beyond ±{:.0}%\n",
+        100.0 * worst,
+        groups.len(),
+        100.0 * tolerance
+    );
     s
 }
 
@@ -395,6 +564,53 @@ pub fn markdown(rows: &[Row], tolerance: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn row(algorithm: &str, phase: &str, measured: f64, predicted: f64) -> Row {
+        Row {
+            scene: "s".into(),
+            algorithm: algorithm.into(),
+            threads: 1,
+            phase: phase.into(),
+            measured_ms: measured,
+            predicted_ms: Some(predicted),
+            major: false,
+        }
+    }
+
+    /// Shared work is the same phase with the same prediction in two or more algorithms; the
+    /// frame, a step, a different prediction and a phase of one algorithm are not.
+    #[test]
+    fn shared_work_groups_the_same_prediction_across_algorithms() {
+        let rows = vec![
+            row("a", "eye_pass", 10.0, 9.0),
+            row("b", "eye_pass", 13.0, 9.0),
+            row("c", "eye_pass", 11.0, 9.0),
+            row("a", "depth_map", 5.0, 4.0),
+            row("b", "depth_map", 8.0, 6.0),
+            row("a", "frame", 20.0, 19.0),
+            row("b", "frame", 20.0, 19.0),
+            row("c", "lookup", 3.0, 3.0),
+            row("a", "eye_pass.tiles", 3.0, 2.0),
+            row("b", "eye_pass.tiles", 6.0, 2.0),
+        ];
+        let groups = shared_work(&rows);
+        assert_eq!(groups.len(), 1, "{groups:?}");
+        let g = &groups[0];
+        assert_eq!((g.phase.as_str(), g.algorithms.len()), ("eye_pass", 3));
+        assert_eq!(g.measured_ms, (10.0, 13.0));
+        assert!((g.spread() - 0.3).abs() < 1e-12);
+        let md = shared_work_markdown(&rows, 0.25);
+        assert!(
+            md.contains("| s | 1 | eye_pass | 3 | 9.00 | 10.00 – 13.00 | 30% ✗ |"),
+            "{md}"
+        );
+        assert!(
+            md.trim_end()
+                .ends_with("largest spread of the same work: 30%; 1 of 1 beyond ±25%"),
+            "{md}"
+        );
+        assert_eq!(shared_work_markdown(&rows[3..5], 0.25), "");
+    }
 
     /// The moment's changes are against the calibration where the file states it, else the start.
     #[test]
