@@ -735,12 +735,9 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read + blend: inactive in-bounds elements are read
             // but discarded, which a shared borrow makes unobservable.
+            // The blend of a select ([`blend32`]): no branch per lane.
             let full: [f32; 16] = core::array::from_fn(|i| mem[i]);
-            let mut o = src.0;
-            for i in 0..16 {
-                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
-            }
-            return F32x16(o);
+            return blendf(src, m, F32x16(full));
         }
         let mut o = src.0;
         for i in m.iter() {
@@ -754,12 +751,9 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read + blend: inactive in-bounds elements are read
             // but discarded, which a shared borrow makes unobservable.
+            // The blend of a select ([`blend32`]): no branch per lane.
             let full: [i32; 16] = core::array::from_fn(|i| mem[i]);
-            let mut o = src.0;
-            for i in 0..16 {
-                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
-            }
-            return I32x16(o);
+            return blendi(src, m, I32x16(full));
         }
         let mut o = src.0;
         for i in m.iter() {
@@ -773,10 +767,10 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read-modify-write; the exclusive borrow makes
             // rewriting inactive elements with their own value unobservable.
+            // The blend of a select ([`blend32`]): no branch per lane.
             let dst = &mut mem[..16];
-            for i in 0..16 {
-                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
-            }
+            let old: [f32; 16] = core::array::from_fn(|i| dst[i]);
+            dst.copy_from_slice(&blendf(F32x16(old), m, v).0);
             return;
         }
         for i in m.iter() {
@@ -789,10 +783,10 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read-modify-write; the exclusive borrow makes
             // rewriting inactive elements with their own value unobservable.
+            // The blend of a select ([`blend32`]): no branch per lane.
             let dst = &mut mem[..16];
-            for i in 0..16 {
-                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
-            }
+            let old: [i32; 16] = core::array::from_fn(|i| dst[i]);
+            dst.copy_from_slice(&blendi(I32x16(old), m, v).0);
             return;
         }
         for i in m.iter() {
