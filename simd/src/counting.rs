@@ -602,15 +602,6 @@ impl<'r, B: Simd> Counting<'r, B> {
     fn mask_move(self) {
         self.rec.with(|st| st.c.mask_moves += 1)
     }
-    /// One mask move that spreads a mask into lanes ([`Counters::mask_spreads`]): a select, a
-    /// masked operation, a masked load or store.
-    #[inline(always)]
-    fn mask_spread(self) {
-        self.rec.with(|st| {
-            st.c.mask_moves += 1;
-            st.c.mask_spreads += 1;
-        })
-    }
     #[inline(always)]
     fn reduce(self, input: u64) {
         self.rec.with(|st| {
@@ -643,7 +634,7 @@ impl<'r, B: Simd> Counting<'r, B> {
     }
     fn masked_contiguous(self, base: usize, m: Mask16, write: bool) {
         // A masked load or store spreads its mask into lanes (a mask move) as a select does.
-        self.mask_spread();
+        self.mask_move();
         if let (Some(f), Some(l)) = (m.first(), m.last()) {
             self.contiguous(base, f as usize, l as usize, write);
         }
@@ -694,7 +685,7 @@ macro_rules! fwd {
         }
     )* };
 }
-/// [`fwd`] for an operation that packs lanes into a mask (compares).
+/// [`fwd`] for an operation that moves between lanes and a mask (compares, selects).
 macro_rules! fwd_mask_move {
     ($class:ident, $lat:expr; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
@@ -705,22 +696,11 @@ macro_rules! fwd_mask_move {
         }
     )* };
 }
-/// [`fwd`] for an operation that spreads a mask into lanes (selects).
-macro_rules! fwd_mask_spread {
-    ($class:ident, $lat:expr; $( fn $name:ident(self $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
-        #[inline(always)]
-        fn $name(self $(, $arg: $ty)*) -> $ret {
-            self.mask_spread();
-            let d = self.op(Class::$class, 16, false, 0 $(.max(Operand::depth(&$arg)))*, $lat);
-            <$ret as Operand>::wrap(self.inner.$name($(Operand::raw($arg)),*), d)
-        }
-    )* };
-}
 macro_rules! fwd_masked {
     ($class:ident, $lat:expr; $( fn $name:ident(self, $src:ident : $sty:ty, $m:ident : Mask16 $(, $arg:ident : $ty:ty)*) -> $ret:ty; )*) => { $(
         #[inline(always)]
         fn $name(self, $src: $sty, $m: Mask16 $(, $arg: $ty)*) -> $ret {
-            self.mask_spread();
+            self.mask_move();
             let d = self.op(Class::$class, $m.count(), true, $src.depth $(.max(Operand::depth(&$arg)))*, $lat);
             <$ret as Operand>::wrap(self.inner.$name($src.value, $m $(, Operand::raw($arg))*), d)
         }
@@ -883,7 +863,7 @@ impl<B: Simd> Simd for Counting<'_, B> {
         fn permute_f(self, v: Self::F32, idx: Self::I32) -> Self::F32;
         fn permute_i(self, v: Self::I32, idx: Self::I32) -> Self::I32;
     }
-    fwd_mask_spread! { Valu, latency::SIMPLE;
+    fwd_mask_move! { Valu, latency::SIMPLE;
         fn select_f(self, m: Mask16, a: Self::F32, b: Self::F32) -> Self::F32;
         fn select_i(self, m: Mask16, a: Self::I32, b: Self::I32) -> Self::I32;
     }

@@ -114,53 +114,21 @@ fn cmpf(a: F32x16, b: F32x16, f: impl Fn(f32, f32) -> bool) -> Mask16 {
 fn cmpi(a: I32x16, b: I32x16, f: impl Fn(i32, i32) -> bool) -> Mask16 {
     cmp_lanes(a.0, b.0, f)
 }
-/// Lane `i` of `v` where bit `i` of `m` is set, else of `src`: without a branch per lane.
-///
-/// On x86_64, per 4 lanes with SSE2 (the x86_64 baseline): the mask broadcast, `and` with the
-/// lanes' bits, `pcmpeqd` into lane masks, then `and`/`andnot`/`or`. Written as a lane loop
-/// (`if bit { v } else { src }`) LLVM compiled it two ways by context: to a blend in some kernels
-/// and to a test and branch per lane in others (55 cycles a 16-lane step on random masks, 4 on
-/// predictable ones), so a select's cost hung on how predictable its masks were, which the
-/// counters do not see. Pinned, it costs the same on any mask. Elsewhere, the lane loop.
-#[inline(always)]
-fn blend32(src: [i32; 16], m: Mask16, v: [i32; 16]) -> [i32; 16] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use core::arch::x86_64::*;
-        let mut out = [0i32; 16];
-        // SAFETY: SSE2 is in the x86_64 baseline; each unaligned load and store covers 4 of the
-        // arrays' 16 lanes.
-        unsafe {
-            let bits = _mm_set1_epi32(m.0 as i32);
-            for q in 0..4 {
-                let lane_bits = _mm_set_epi32(8 << (4 * q), 4 << (4 * q), 2 << (4 * q), 1 << (4 * q));
-                let lanes = _mm_cmpeq_epi32(_mm_and_si128(bits, lane_bits), lane_bits);
-                let a = _mm_loadu_si128(v.as_ptr().add(4 * q) as *const __m128i);
-                let b = _mm_loadu_si128(src.as_ptr().add(4 * q) as *const __m128i);
-                let r = _mm_or_si128(_mm_and_si128(lanes, a), _mm_andnot_si128(lanes, b));
-                _mm_storeu_si128(out.as_mut_ptr().add(4 * q) as *mut __m128i, r);
-            }
-        }
-        out
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let mut o = [0i32; 16];
-        for i in 0..16 {
-            o[i] = if (m.0 >> i) & 1 == 1 { v[i] } else { src[i] };
-        }
-        o
-    }
-}
 #[inline(always)]
 fn blendf(src: F32x16, m: Mask16, v: F32x16) -> F32x16 {
-    // Bit for bit: a select moves lanes, it never computes on them (NaN payloads kept).
-    let bits = |x: [f32; 16]| x.map(|f| f.to_bits() as i32);
-    F32x16(blend32(bits(src.0), m, bits(v.0)).map(|i| f32::from_bits(i as u32)))
+    let mut o = [0f32; 16];
+    for i in 0..16 {
+        o[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { src.0[i] };
+    }
+    F32x16(o)
 }
 #[inline(always)]
 fn blendi(src: I32x16, m: Mask16, v: I32x16) -> I32x16 {
-    I32x16(blend32(src.0, m, v.0))
+    let mut o = [0i32; 16];
+    for i in 0..16 {
+        o[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { src.0[i] };
+    }
+    I32x16(o)
 }
 /// Tree reduction in the documented order: lane i combines with i^8, i^4,
 /// i^2, i^1; the result is lane 0.
@@ -735,9 +703,12 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read + blend: inactive in-bounds elements are read
             // but discarded, which a shared borrow makes unobservable.
-            // The blend of a select ([`blend32`]): no branch per lane.
             let full: [f32; 16] = core::array::from_fn(|i| mem[i]);
-            return blendf(src, m, F32x16(full));
+            let mut o = src.0;
+            for i in 0..16 {
+                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
+            }
+            return F32x16(o);
         }
         let mut o = src.0;
         for i in m.iter() {
@@ -751,9 +722,12 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read + blend: inactive in-bounds elements are read
             // but discarded, which a shared borrow makes unobservable.
-            // The blend of a select ([`blend32`]): no branch per lane.
             let full: [i32; 16] = core::array::from_fn(|i| mem[i]);
-            return blendi(src, m, I32x16(full));
+            let mut o = src.0;
+            for i in 0..16 {
+                o[i] = if (m.0 >> i) & 1 == 1 { full[i] } else { o[i] };
+            }
+            return I32x16(o);
         }
         let mut o = src.0;
         for i in m.iter() {
@@ -767,10 +741,10 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read-modify-write; the exclusive borrow makes
             // rewriting inactive elements with their own value unobservable.
-            // The blend of a select ([`blend32`]): no branch per lane.
             let dst = &mut mem[..16];
-            let old: [f32; 16] = core::array::from_fn(|i| dst[i]);
-            dst.copy_from_slice(&blendf(F32x16(old), m, v).0);
+            for i in 0..16 {
+                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
+            }
             return;
         }
         for i in m.iter() {
@@ -783,10 +757,10 @@ impl Simd for Portable {
         if mem.len() >= 16 {
             // Full-width read-modify-write; the exclusive borrow makes
             // rewriting inactive elements with their own value unobservable.
-            // The blend of a select ([`blend32`]): no branch per lane.
             let dst = &mut mem[..16];
-            let old: [i32; 16] = core::array::from_fn(|i| dst[i]);
-            dst.copy_from_slice(&blendi(I32x16(old), m, v).0);
+            for i in 0..16 {
+                dst[i] = if (m.0 >> i) & 1 == 1 { v.0[i] } else { dst[i] };
+            }
             return;
         }
         for i in m.iter() {

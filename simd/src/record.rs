@@ -104,11 +104,6 @@ counters! {
     /// is also counted in its own class; this is what it costs beyond that. With mask registers
     /// (Larrabee, AVX-512) nothing much; on the portable backend 16 lane bits packed or spread.
     mask_moves,
-    /// The mask moves that spread a mask into lanes: selects, masked arithmetic, masked loads and
-    /// stores. The rest of `mask_moves` pack lanes into a mask (compares, `test_i`). The portable
-    /// backend spreads a mask with a blend over lane masks made from its bits and packs one with a
-    /// sign-bit extraction: two idioms of different costs, fitted apart.
-    mask_spreads,
     /// Cache lines touched by contiguous loads (1, or 2 when a 64-byte
     /// access straddles lines).
     load_lines,
@@ -233,8 +228,8 @@ impl AddAssign<&TaskRecord> for TaskRecord {
 const MAGIC: u8 = 0x5A;
 /// The task record format's version ([`TaskRecord::to_bytes`]'s second byte). 2: `critical_path`
 /// and the counted scalar classes; 3: `branch_mispredicts`; 4: `scalar_float`; 5: `mask_moves`;
-/// 6: `window_issue`; 7: `mask_spreads`.
-pub const TASK_RECORD_VERSION: u8 = 7;
+/// 6: `window_issue`.
+pub const TASK_RECORD_VERSION: u8 = 6;
 const VERSION: u8 = TASK_RECORD_VERSION;
 
 impl TaskRecord {

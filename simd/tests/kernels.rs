@@ -107,8 +107,6 @@ fn point_in_triangle_counters_exact() {
         // Mask moves: per iteration the 3 masked loads and stores; per triangle its 3 compares
         // and the select (the mask logic and the `or` move nothing between lanes and masks).
         assert_eq!(c.mask_moves, (3 + 4 * k) * iters);
-        // Of them, the spreads of a mask into lanes: the masked loads and stores and the select.
-        assert_eq!(c.mask_spreads, (3 + k) * iters);
         let tail = (n % 16) as u64;
         assert_eq!(c.active_lanes, 16 * c.vector_ops - 3 * (16 - tail));
         // xs and ys streamed: each 64-byte aligned-or-not 16-float load

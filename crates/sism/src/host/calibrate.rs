@@ -11,11 +11,8 @@
 //!
 //! The fitted costs: `vector_cycles` (ALU/FMA stream on the 2, 4 or 8 independent chains the backend
 //! runs fastest, [`throughput_chains`]: the throughput; the issue cost alone where that benchmark
-//! is latency-bound, as on the portable backend), `mask_spread_cycles` (selects on masks made
-//! before the loop: what spreading a mask into lanes costs beyond an add), `mask_move_cycles`
-//! (compares into masks and selects on them: what packing lanes into a mask costs beyond an add,
-//! the spreads held; compares without selects are a check: with AVX-512 their mask logic runs on
-//! the vector ports, which the model puts on the scalar pipe),
+//! is latency-bound, as on the portable backend), `mask_move_cycles` (compares into masks and
+//! selects on them: what a move between lanes and a mask costs beyond an add),
 //! `latency_scale` (the same operations on one chain: cycles per nominal latency cycle of the
 //! recorded critical path), `load_store_cycles` (streaming loads from
 //! L1), `compress_cycles` (compress-stores), `scalar_cycles` (integer chains counted as scalar
@@ -107,12 +104,9 @@ pub enum Fits {
     /// `scalar_float_cycles`, by vector chains interleaved with scalar float chains (after
     /// `vector_cycles`: what the scalar floats add to the vector unit's issue).
     ScalarFloat,
-    /// `mask_move_cycles`, by compares into masks and selects on them (after `vector_cycles`
-    /// and `mask_spread_cycles`: what packing lanes into a mask adds to an add's cost).
+    /// `mask_move_cycles`, by compares into masks and selects on them (after `vector_cycles`:
+    /// what moving between lanes and masks adds to an add's cost).
     MaskMove,
-    /// `mask_spread_cycles`, by selects on masks made before the loop (after `vector_cycles`:
-    /// what spreading a mask into lanes adds to an add's cost).
-    MaskSpread,
     /// `dram_bandwidth_gbs`, the chip's, by streaming loads from DRAM on every host thread at once.
     DramBandwidth,
     /// `task_overhead_cycles`, by many empty tasks in one step.
@@ -224,16 +218,6 @@ enum Kind {
     /// `iters` rounds of [`CompareSelectK`]: compares into masks, mask logic and selects on 8
     /// independent chains, through the kernels' API.
     CompareSelect {
-        iters: usize,
-    },
-    /// `iters` rounds of [`CompareMaskK`]: compares into masks and mask xors beside adds on 8
-    /// independent chains; no select.
-    CompareMask {
-        iters: usize,
-    },
-    /// `iters` rounds of [`SelectSpreadK`]: selects on random masks made before the loop, between
-    /// adds and subtractions on 8 independent chains; no compare.
-    SelectSpread {
         iters: usize,
     },
     /// [`ScalarMixK`] over `points` points (an L2-sized array), 16 passes.
@@ -422,18 +406,6 @@ pub const BENCHES: &[Bench] = &[
             vector: false,
             chains: THROUGHPUT_CHAINS,
         },
-    },
-    Bench {
-        name: "compare-mask",
-        what: "16-lane compares into masks and mask xors beside adds on 8 independent chains, no selects",
-        fits: Fits::Check,
-        kind: Kind::CompareMask { iters: 100_000 },
-    },
-    Bench {
-        name: "select-spread",
-        what: "16-lane selects on random masks made before the loop, with adds, on 8 independent chains",
-        fits: Fits::MaskSpread,
-        kind: Kind::SelectSpread { iters: 100_000 },
     },
     Bench {
         name: "compare-select",
@@ -1004,62 +976,6 @@ impl Kernel for CompareSelectK {
     }
 }
 
-/// Compares into masks without selects: per round and chain an add, a compare against the next
-/// chain and a mask xor (the masks are consumed by their counts at the end).
-struct CompareMaskK {
-    iters: usize,
-}
-impl Kernel for CompareMaskK {
-    type Output = f32;
-    #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> f32 {
-        let step = s.splat_f(black_box(0.618_034));
-        let lanes = s.mul_f(s.cvt_i_f(s.index_i()), s.splat_f(0.01));
-        let mut a = [lanes; 8];
-        for (k, v) in a.iter_mut().enumerate() {
-            *v = s.add_f(lanes, s.splat_f(k as f32 * 0.37));
-        }
-        let mut m = [Mask16::NONE; 8];
-        for _ in 0..self.iters {
-            for k in 0..8 {
-                a[k] = s.add_f(a[k], step);
-                m[k] = s.mask_xor(m[k], s.cmp_lt_f(a[k], a[(k + 1) % 8]));
-            }
-        }
-        let bits: u32 = m.iter().map(|m| m.count()).sum();
-        sum_chains(s, &a) + bits as f32
-    }
-}
-
-/// Selects without compares: per round and chain a select, on one of 8 random masks made before
-/// the loop, between an add and a subtraction of the chain.
-struct SelectSpreadK {
-    iters: usize,
-}
-impl Kernel for SelectSpreadK {
-    type Output = f32;
-    #[inline(always)]
-    fn run<S: Simd>(self, s: S) -> f32 {
-        let (up, down) = (s.splat_f(black_box(0.618_034)), s.splat_f(black_box(0.5)));
-        let lanes = s.mul_f(s.cvt_i_f(s.index_i()), s.splat_f(0.01));
-        let mut a = [lanes; 8];
-        for (k, v) in a.iter_mut().enumerate() {
-            *v = s.add_f(lanes, s.splat_f(k as f32 * 0.1));
-        }
-        // Random bits: a mask's lanes follow no pattern a per-lane branch could learn.
-        let mut st = 0x2545_f491_u64;
-        let masks: [Mask16; 8] = std::array::from_fn(|_| Mask16((lcg(&mut st) >> 8) as u16));
-        let masks = black_box(masks);
-        for i in 0..self.iters {
-            for k in 0..8 {
-                let m = masks[(i + k) % 8];
-                a[k] = s.select_f(m, s.add_f(a[k], up), s.sub_f(a[k], down));
-            }
-        }
-        sum_chains(s, &a)
-    }
-}
-
 /// One 16-lane store at the start of each 4 KiB page of `data`.
 struct FreshPagesK<'a> {
     data: &'a mut [i32],
@@ -1480,12 +1396,6 @@ fn measure_with(bench: &Bench, m: &MachineConfig, count: bool) -> Measured {
         }
         Kind::CompareSelect { iters } => native_and_counted(&mut |r| {
             black_box(run_on(r, CompareSelectK { iters }));
-        }),
-        Kind::CompareMask { iters } => native_and_counted(&mut |r| {
-            black_box(run_on(r, CompareMaskK { iters }));
-        }),
-        Kind::SelectSpread { iters } => native_and_counted(&mut |r| {
-            black_box(run_on(r, SelectSpreadK { iters }));
         }),
         Kind::ScalarFloat {
             iters,
@@ -2180,13 +2090,6 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
                         m.mask_move_cycles = 0.0;
                     }
                 }
-                Fits::MaskSpread => {
-                    let set = |m: &mut MachineConfig, c: f64| m.mask_spread_cycles = c;
-                    solve(&mut m, x, 0.0, 1000.0, &set);
-                    if !moves(x, &m, m.mask_spread_cycles, &set) {
-                        m.mask_spread_cycles = 0.0;
-                    }
-                }
                 Fits::Barrier => solve(&mut m, x, 0.0, 10_000_000.0, &|m, c| {
                     m.barrier_cycles = c.round() as u32
                 }),
@@ -2213,7 +2116,6 @@ pub fn fit(start: &MachineConfig, measured: &[Measured]) -> Calibration {
     m.mispredict_cycles = (m.mispredict_cycles * 100.0).round() / 100.0;
     m.scalar_float_cycles = (m.scalar_float_cycles * 1000.0).round() / 1000.0;
     m.mask_move_cycles = (m.mask_move_cycles * 1000.0).round() / 1000.0;
-    m.mask_spread_cycles = (m.mask_spread_cycles * 1000.0).round() / 1000.0;
     m.name = "host-calibrated".into();
     let rows = measured
         .iter()
@@ -2353,7 +2255,6 @@ mod tests {
         truth.mispredict_cycles = 15.0;
         truth.scalar_float_cycles = 0.2;
         truth.mask_move_cycles = 0.9;
-        truth.mask_spread_cycles = 1.4;
         // Small runs of the fitted benchmarks, "measured" as the truth model predicts them.
         let shrink = |k: Kind| match k {
             // The throughput benchmark on 8 chains whatever the backend runs fastest (the
@@ -2370,8 +2271,6 @@ mod tests {
                 chains: 8,
             },
             Kind::Divide { .. } => Kind::Divide { iters: 500 },
-            Kind::CompareMask { .. } => Kind::CompareMask { iters: 2000 },
-            Kind::SelectSpread { .. } => Kind::SelectSpread { iters: 2000 },
             Kind::ScalarDivide { .. } => Kind::ScalarDivide { iters: 2000 },
             Kind::Branch { period, .. } => Kind::Branch {
                 count: 20_000,
@@ -2454,7 +2353,6 @@ mod tests {
         start.mispredict_cycles = 1.0;
         start.scalar_float_cycles = 1.0;
         start.mask_move_cycles = 0.0;
-        start.mask_spread_cycles = 0.0;
         (truth, start, measured)
     }
 
@@ -2492,11 +2390,6 @@ mod tests {
             near_abs(c.mask_move_cycles, 0.9, 0.02),
             "mask move {}",
             c.mask_move_cycles
-        );
-        assert!(
-            near_abs(c.mask_spread_cycles, 1.4, 0.02),
-            "mask spread {}",
-            c.mask_spread_cycles
         );
         assert!(
             near_abs(c.scalar_float_cycles, 0.2, 0.01),

@@ -85,7 +85,6 @@ pub const REAL_LIMITS: &[(&str, f64, f64)] = &[
     ("mispredict_cycles", 0.0, 10_000.0),
     ("scalar_float_cycles", 0.0, 10_000.0),
     ("mask_move_cycles", 0.0, 10_000.0),
-    ("mask_spread_cycles", 0.0, 10_000.0),
 ];
 
 /// Largest modelled cache over all cores (`cores × (l1_kb + l2_kb)`), bytes: the model keeps a tag
@@ -311,22 +310,14 @@ pub struct MachineConfig {
     /// is unused (0, the default).
     #[serde(default)]
     pub scalar_float_cycles: f64,
-    /// Vector issue cycles one compare into a mask takes beyond its own class's cost (0–10000):
-    /// a mask move that packs lanes into a mask (`Counters::mask_moves` less
-    /// `Counters::mask_spreads`: compares, `test_i`). With mask registers (Larrabee, AVX-512) a
-    /// compare writes a mask for free: 0, the default. The portable backend has none: a compare
-    /// packs 16 lane results into 16 bits. Hosts: fitted on the compare/select benchmark after
-    /// `vector_cycles` (arithmetic) and `mask_spread_cycles` (selects alone).
+    /// Vector issue cycles one move between lanes and a mask (`Counters::mask_moves`: a compare, a
+    /// select, a masked operation, load or store) takes beyond its own class's cost (0–10000).
+    /// With mask registers (Larrabee, AVX-512) a compare writes a mask and a masked operation
+    /// reads one for free: 0, the default. The portable backend has none: a compare packs 16
+    /// lane results into 16 bits and a select spreads them back, several times an add. Hosts:
+    /// fitted on the compare/select benchmark after `vector_cycles` is fitted on arithmetic.
     #[serde(default)]
     pub mask_move_cycles: f64,
-    /// Vector issue cycles one spread of a mask into lanes takes beyond its own class's cost
-    /// (`Counters::mask_spreads`: a select, a masked operation, a masked load or store; 0–10000).
-    /// Mask registers make it free (Larrabee, AVX-512: 0, the default); the portable backend
-    /// turns 16 mask bits back into lane masks and blends. Hosts: fitted on the select-spread
-    /// benchmark (selects on masks made outside the loop). Machine files written before this
-    /// parameter read it as 0: calibrate again.
-    #[serde(default)]
-    pub mask_spread_cycles: f64,
 }
 
 fn one() -> f64 {
@@ -414,7 +405,6 @@ impl MachineConfig {
             mispredict_cycles: 4.0,
             scalar_float_cycles: 0.0,
             mask_move_cycles: 0.0,
-            mask_spread_cycles: 0.0,
         }
     }
 
@@ -657,7 +647,6 @@ impl MachineConfig {
             "mispredict_cycles" => self.mispredict_cycles,
             "scalar_float_cycles" => self.scalar_float_cycles,
             "mask_move_cycles" => self.mask_move_cycles,
-            "mask_spread_cycles" => self.mask_spread_cycles,
             _ => unreachable!("not a real field: {key}"),
         }
     }

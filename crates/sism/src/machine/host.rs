@@ -357,11 +357,9 @@ pub fn host_preset_from(facts: &HostFacts, backend: sism_simd::BackendKind) -> M
         // 16-lane AVX-512 operation taking two: half its cost), fitted by `sism calibrate` on
         // vector chains interleaved with scalar float chains.
         scalar_float_cycles: fam.vector_avx512 / 2.0,
-        // A compare into a mask, a mask spread into lanes, beyond an add's cost: nothing with mask
-        // registers; fitted by `sism calibrate` on the compare-mask and select-spread benchmarks
-        // (the portable backend's are dear).
+        // A compare or select beyond an add's cost: nothing with mask registers; fitted by `sism
+        // calibrate` on the compare/select benchmark (the portable backend's are dear).
         mask_move_cycles: 0.0,
-        mask_spread_cycles: 0.0,
     }
 }
 

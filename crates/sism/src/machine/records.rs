@@ -6,12 +6,12 @@
 //!
 //! Format, version 9 (little-endian; 3: task records carry `branch_mispredicts`; 4: `scalar_float`;
 //! 5: a step's flags; 6: `mask_moves`; 7: each line carries its stream state; 8: `window_issue`;
-//! 9: `scalar_stores`; 10: `mask_spreads`):
+//! 9: `scalar_stores`):
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 8 | magic `SISMREC\0` |
-//! | 4 | version (10) |
+//! | 4 | version (9) |
 //! | 4 | flags: bit 0 = line ids are first-touch ids (always set by this version) |
 //! | 8 | total file size, bytes |
 //! | 4 | phase (step) count |
@@ -37,14 +37,14 @@ use crate::exec::PhaseRecords;
 
 const MAGIC: &[u8; 8] = b"SISMREC\0";
 /// The version this sism writes and reads.
-pub const VERSION: u32 = 10;
+pub const VERSION: u32 = 9;
 /// Flag bit: line ids are first-touch ids.
 const FLAG_FIRST_TOUCH: u32 = 1;
 /// Step flag bit: the host ran the step's tasks serially.
 const STEP_SERIAL: u32 = 1;
 /// Header bytes before the first step.
 const HEADER: usize = 8 + 4 + 4 + 8 + 4;
-/// Smallest encoded task record (magic, version, kind, field count, one-byte counters, count,
+/// Smallest encoded task record (magic, version, kind, field count, 20 one-byte counters, count,
 /// last, stream length), bytes: bounds the task count a length can claim.
 const MIN_TASK_BYTES: u64 = 27;
 /// Smallest encoded step (name length, flags, task count), bytes: bounds the step count.

@@ -217,11 +217,8 @@ struct ClassCycles {
 }
 
 fn class_cycles(c: &Counters, m: &MachineConfig) -> ClassCycles {
-    // Mask moves: the packs (compares) and the spreads (selects, masked operations) at their costs.
-    let packs = c.mask_moves.saturating_sub(c.mask_spreads);
-    let alu = c.valu.saturating_add(c.fma) as f64 * m.vector_cycles
-        + packs as f64 * m.mask_move_cycles
-        + c.mask_spreads as f64 * m.mask_spread_cycles;
+    let alu =
+        c.valu.saturating_add(c.fma) as f64 * m.vector_cycles + c.mask_moves as f64 * m.mask_move_cycles;
     let mem = c.load.saturating_add(c.store) as f64 * m.load_store_cycles;
     let compress = c.compress_expand as f64 * m.compress_cycles;
     let gs_lines =
@@ -321,7 +318,7 @@ pub fn window_factor(c: &Counters) -> f64 {
 /// Issue and atomic cycles of a task's counters (no memory). Saturating: within the limits of
 /// validated configurations and records (`MachineConfig::validate`, `load_records`) nothing
 /// saturates, and beyond them a figure sticks at `u64::MAX` instead of wrapping. The real-valued
-/// per-class costs (`vector_cycles`, `mask_move_cycles` and `mask_spread_cycles`, `load_store_cycles`, `compress_cycles`,
+/// per-class costs (`vector_cycles` and `mask_move_cycles`, `load_store_cycles`, `compress_cycles`,
 /// `scalar_cycles`, `gather_cycles`) are summed in `f64` and
 /// rounded up once; with Larrabee's costs of 1 every term is an exact integer, so the result is the
 /// integer formula's.
