@@ -118,9 +118,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .flatten()
         .map(|t| calibrate::evidence_from_toml(&t))
         .unwrap_or_default();
-    // validate_scene's progress calls: a counted frame per algorithm, a warm-up and `frames`
-    // rounds per thread count.
-    let per_scene = algos.len() as u64 + threads.len() as u64 * (a.frames as u64 + 1);
+    let per_scene = validate::progress_calls(algos.len(), threads.len(), a.frames);
     let calibrations = if a.calibrate_per_scene {
         scenes.len() as u64 * calibrate::calibrate_host_steps(a.calibration_rounds)
     } else {

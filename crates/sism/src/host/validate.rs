@@ -94,8 +94,8 @@ pub type Subject<'a> = (&'a Algorithm, Params);
 /// algorithm it fell on (the same eye pass was seen to spread by a third across one scene's
 /// algorithms); interleaved, it falls on one round of every algorithm and the median drops it.
 ///
-/// `progress(label)` is called before each counted frame and each round (warm-up included): that
-/// is `algorithms.len() + threads.len() * (frames + 1)` calls.
+/// `progress(label)` is called before each counted frame and each round (warm-up included):
+/// [`progress_calls`] times.
 pub fn validate_scene(
     scene: &Scene,
     algorithms: &[Subject<'_>],
@@ -166,6 +166,18 @@ pub fn validate_scene(
         }
     }
     Ok(rows)
+}
+
+/// How many times [`validate_scene`] calls its `progress` for `algorithms` algorithms, `threads`
+/// thread counts and `frames` timed rounds: a counted frame per algorithm, a warm-up and the
+/// rounds (at least one) per thread count.
+pub fn progress_calls(algorithms: usize, threads: usize, frames: usize) -> u64 {
+    algorithms as u64 + threads as u64 * (rounds(frames) as u64 + 1)
+}
+
+/// The timed rounds of `frames`: at least one.
+fn rounds(frames: usize) -> usize {
+    frames.max(1)
 }
 
 /// The rows of one algorithm on `t` threads: its model `report` against its native frames' `times`.
@@ -303,7 +315,7 @@ fn native_times_interleaved(
     };
     let n = algorithms.len();
     let mut times: Vec<Vec<FrameTimes>> = (0..n).map(|_| Vec::with_capacity(frames)).collect();
-    for round in 0..=frames.max(1) {
+    for round in 0..=rounds(frames) {
         progress(round);
         for k in 0..n {
             let a = (round + k) % n;
