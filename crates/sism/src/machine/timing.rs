@@ -932,7 +932,7 @@ pub fn simulate_frame_with(
     phases: &[Step<'_>],
     lines: impl FnMut(&[u32], bool),
 ) -> Vec<PhaseReport> {
-    simulate_pipelined(config, phases, lines, None)
+    simulate_pipelined(config, phases, lines, None, FOLLOW_HERE_QUEUED)
 }
 
 /// [`simulate_frame`], also giving what every task did in the caches, for timing the same records
@@ -942,7 +942,7 @@ pub fn simulate_frame_recorded(
     phases: &[Step<'_>],
 ) -> (Vec<PhaseReport>, CacheOutcomes) {
     let mut tasks = Vec::new();
-    let reports = simulate_pipelined(config, phases, |_, _| {}, Some(&mut tasks));
+    let reports = simulate_pipelined(config, phases, |_, _| {}, Some(&mut tasks), FOLLOW_HERE_QUEUED);
     let outcomes = CacheOutcomes {
         geometry: replay_geometry(config),
         tasks,
@@ -977,30 +977,50 @@ pub fn simulate_recorded(
         .collect()
 }
 
-/// [`simulate_frame_with`], pushing each task's outcome to `record` when given.
+/// [`simulate_frame_with`], pushing each task's outcome to `record` when given; the mapping thread
+/// follows a task's streams itself when at least `follow_here_queued` chunks wait
+/// ([`FOLLOW_HERE_QUEUED`]; tests force either side).
 fn simulate_pipelined(
     config: &MachineConfig,
     phases: &[Step<'_>],
     mut lines: impl FnMut(&[u32], bool),
     mut record: Option<&mut Vec<TaskOutcome>>,
+    follow_here_queued: usize,
 ) -> Vec<PhaseReport> {
     let mut machine = Machine::new(config);
     let mut ids = std::mem::take(&mut machine.ids);
     std::thread::scope(|scope| {
-        // A message is a chunk of a task's ids and, with the task's last chunk, its pages.
-        let (full_tx, full_rx) = crossbeam::channel::bounded::<(Vec<u32>, Option<TaskPages>)>(PIPELINE_DEPTH);
-        let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Vec<u32>>();
+        // A message is a chunk of a task's accesses ([`LineMapper::map_unfollowed`]) and, with the
+        // task's last chunk, its pages. The mapping thread decodes and maps to first-touch ids,
+        // which must go in frame order; this thread replays. Following a task's streams (a third
+        // to a half of the work, measured on japanese-maple) depends on that task alone, so either
+        // thread may do it, with the same states: the mapping thread follows a task's streams
+        // itself while chunks wait for this thread, and leaves them to this thread while it
+        // waits for chunks.
+        let (full_tx, full_rx) =
+            crossbeam::channel::bounded::<(Unfollowed, Option<TaskPages>)>(PIPELINE_DEPTH);
+        let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Unfollowed>();
         scope.spawn(move || {
             for (task, first_touch) in phases.iter().flat_map(|p| p.tasks()) {
+                let follow_here = !first_touch && full_tx.len() >= follow_here_queued;
+                let followed = first_touch || follow_here;
+                let mut streams = StreamFollower::default();
                 let mut buf = empty_rx.try_recv().unwrap_or_default();
-                buf.clear();
+                buf.clear(followed);
                 let mut alive = true;
-                let pages = ids.map_each(task, first_touch, |id| {
-                    buf.push(id);
-                    if buf.len() == CHUNK_LINES && alive {
-                        let next = empty_rx.try_recv().unwrap_or_default();
+                let pages = ids.map_unfollowed(task, first_touch, |id, line| {
+                    if follow_here {
+                        buf.ids.push(id | streams.follow(line) << 1);
+                    } else {
+                        buf.ids.push(id);
+                        if !followed {
+                            buf.lines.push(line);
+                        }
+                    }
+                    if buf.ids.len() == CHUNK_LINES && alive {
+                        let mut next = empty_rx.try_recv().unwrap_or_default();
+                        next.clear(followed);
                         alive = full_tx.send((std::mem::replace(&mut buf, next), None)).is_ok();
-                        buf.clear();
                     }
                 });
                 if !alive || full_tx.send((buf, Some(pages))).is_err() {
@@ -1008,18 +1028,24 @@ fn simulate_pipelined(
                 }
             }
         });
+        let mut streams = StreamFollower::default();
         phases
             .iter()
             .map(|&step| {
                 machine.run_phase_with(
                     step,
                     |_, replay| loop {
-                        let (chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
-                        replay(&chunk);
-                        lines(&chunk, pages.is_some());
+                        let (mut chunk, pages) = full_rx.recv().expect("the mapping thread maps every task");
+                        if !chunk.followed {
+                            streams.follow_chunk(&mut chunk.ids, &chunk.lines);
+                        }
+                        replay(&chunk.ids);
+                        lines(&chunk.ids, pages.is_some());
                         // Hand the buffer back for reuse (the mapper may have finished).
                         let _ = empty_tx.send(chunk);
                         if let Some(pages) = pages {
+                            // Each task starts with no stream.
+                            streams = StreamFollower::default();
                             break pages;
                         }
                     },
@@ -1028,6 +1054,32 @@ fn simulate_pipelined(
             })
             .collect()
     })
+}
+
+/// Chunks waiting for the replay's calling thread at which its mapping thread follows the next
+/// task's streams itself ([`simulate_pipelined`]).
+const FOLLOW_HERE_QUEUED: usize = 2;
+
+/// A chunk of a task's accesses as the replay's mapping thread hands them on
+/// ([`LineMapper::map_unfollowed`]): ids with their stream states, or without them and with the
+/// line addresses a [`StreamFollower`] needs.
+#[derive(Default)]
+struct Unfollowed {
+    /// `id << 3 | stream << 1 | is_write`, the stream state 0 unless `followed`.
+    ids: Vec<u32>,
+    /// The accesses' line addresses, for the stream follower (empty when `followed`).
+    lines: Vec<u64>,
+    /// The ids carry their stream states (the records did, or the mapping thread followed them).
+    followed: bool,
+}
+
+impl Unfollowed {
+    /// Empties the chunk for a task whose ids will (`followed`) or will not carry their states.
+    fn clear(&mut self, followed: bool) {
+        self.ids.clear();
+        self.lines.clear();
+        self.followed = followed;
+    }
 }
 
 /// A frame's line streams decoded once into first-touch ids (`id << 3 | stream << 2 | young << 1 | is_write`, as
@@ -1151,6 +1203,24 @@ impl LineMapper {
     /// pass look sequential). Lines that are already first-touch ids carry the state the
     /// addresses gave when they were saved.
     pub fn map_each(&mut self, task: &TaskRecord, first_touch: bool, mut each: impl FnMut(u32)) -> TaskPages {
+        let mut streams = StreamFollower::default();
+        self.map_unfollowed(task, first_touch, |id, line| {
+            each(id | streams.follow_unless(first_touch, line) << 1)
+        })
+    }
+
+    /// [`LineMapper::map_each`] without following streams: `each` gets every access's `id << 3 |
+    /// stream << 1 | is_write` with the stream state only where the records carry it
+    /// (`first_touch`; else 0), and the line's address, which a [`StreamFollower`] of the task
+    /// ([`StreamFollower::follow_unless`]) turns into the state. The replay's pipeline follows the
+    /// streams on its other thread: stream following was a third of the mapping thread's time,
+    /// the pipeline's slow stage, while the cache simulation's thread waited most of its own.
+    pub fn map_unfollowed(
+        &mut self,
+        task: &TaskRecord,
+        first_touch: bool,
+        mut each: impl FnMut(u32, u64),
+    ) -> TaskPages {
         let mut pages = TaskPages::default();
         let mut last_page = u32::MAX;
         self.task = self.task.wrapping_add(1);
@@ -1160,19 +1230,18 @@ impl LineMapper {
             self.task = 1;
         }
         let task_number = self.task;
-        let mut streams = StreamFollower::default();
-        // A plain loop over the decoder (not a callback): the stream state stays in registers and
+        // A plain loop over the decoder (not a callback): its state stays in registers and
         // nothing is called per access.
         for (line, write) in task.lines.iter() {
-            let (line, stream) = if first_touch {
+            let (key, stream) = if first_touch {
                 // At most 2 (a records file's lines are checked as it loads).
                 let (id, stream) = canonical_parts(line);
                 (id, stream.min(2))
             } else {
-                (line, streams.follow(line))
+                (line, 0)
             };
             let before = self.ids.len();
-            let id = self.ids.id(line);
+            let id = self.ids.id(key);
             // The first line of a page, touched first by a write: fresh memory.
             pages.fresh += (self.ids.len() > before && id.is_multiple_of(LINES_PER_PAGE) && write) as u64;
             let page = id / LINES_PER_PAGE;
@@ -1185,7 +1254,7 @@ impl LineMapper {
                 pages.distinct += (self.page_task[p] != task_number) as u64;
                 self.page_task[p] = task_number;
             }
-            each(id << 3 | stream << 1 | write as u32);
+            each(id << 3 | stream << 1 | write as u32, line);
         }
         pages
     }
@@ -1240,6 +1309,30 @@ impl Default for StreamFollower {
 }
 
 impl StreamFollower {
+    /// [`StreamFollower::follow`] of `line`, or 0 without following when `first_touch` (the
+    /// records carry the state: [`LineMapper::map_unfollowed`]).
+    #[inline(always)]
+    pub fn follow_unless(&mut self, first_touch: bool, line: u64) -> u32 {
+        if first_touch {
+            0
+        } else {
+            self.follow(line)
+        }
+    }
+
+    /// Follows `lines` (a chunk of a task's accesses, in order), adding each one's state to its
+    /// id (`ids[k] |= state << 1`, [`LineMapper::map_unfollowed`]'s encoding). Not inlined: a loop
+    /// of its own keeps the follower's state out of the caller's closures, whose captures the
+    /// compiler reloads on every access.
+    #[inline(never)]
+    pub fn follow_chunk(&mut self, ids: &mut [u32], lines: &[u64]) {
+        let mut s = core::mem::take(self);
+        for (id, &line) in ids.iter_mut().zip(lines) {
+            *id |= s.follow(line) << 1;
+        }
+        *self = s;
+    }
+
     /// The next access's line: 0 if it is no new line of a stream (a new stream, or the same line
     /// again), 1 if a young stream's, 2 if an established stream's.
     #[inline(always)]
@@ -1339,6 +1432,7 @@ pub fn add_phase(f: &mut PhaseReport, p: &PhaseReport) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sism_simd::LineStream;
 
     #[test]
     fn the_oldest_stream_is_the_one_a_scan_finds() {
@@ -1371,6 +1465,62 @@ mod tests {
             }
             assert_eq!(oldest_stream(&used), scan(&used), "{used:?}");
         }
+    }
+
+    #[test]
+    fn either_thread_of_the_pipeline_follows_the_same_streams() {
+        // Tasks of sequential runs, strides and scattered lines, one longer than a chunk.
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let tasks: Vec<TaskRecord> = (0..6u64)
+            .map(|t| {
+                let n = if t == 2 {
+                    CHUNK_LINES as u64 * 2 + 777
+                } else {
+                    5000 + 900 * t
+                };
+                let lines = LineStream::encode((0..n).map(|i| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    let line = match i % 5 {
+                        0 | 1 => 1_000_000 * (t + 1) + i,
+                        2 => 50_000_000 + 3 * i,
+                        _ => x % 4_000_000,
+                    };
+                    (line, x.is_multiple_of(7))
+                }));
+                TaskRecord {
+                    kind: 0,
+                    counters: Counters {
+                        valu: 10,
+                        vector_ops: 10,
+                        ..Default::default()
+                    },
+                    lines,
+                }
+            })
+            .collect();
+        let config = MachineConfig::larrabee_24();
+        let steps = [Step::parallel("a", &tasks[..4]), Step::parallel("b", &tasks[4..])];
+        let run = |queued| {
+            let mut mapped = Vec::new();
+            let reports =
+                simulate_pipelined(&config, &steps, |c, _| mapped.extend_from_slice(c), None, queued);
+            (reports, mapped)
+        };
+        // Every task followed by the mapping thread, then every task by the calling thread.
+        let (mapper, mapper_lines) = run(0);
+        let (caller, caller_lines) = run(usize::MAX);
+        assert_eq!(mapper_lines, caller_lines);
+        assert!(
+            mapper_lines.iter().any(|id| (id >> 1) & 3 == 2),
+            "some lines continue streams"
+        );
+        assert_eq!(format!("{mapper:?}"), format!("{caller:?}"));
+        // The same as the unpipelined replay, step after step.
+        let mut machine = Machine::new(&config);
+        let serial: Vec<_> = steps.iter().map(|s| machine.run_phase(s.name, s.tasks)).collect();
+        assert_eq!(format!("{caller:?}"), format!("{serial:?}"));
     }
 
     #[test]
