@@ -1212,9 +1212,10 @@ impl LineMapper {
     /// [`LineMapper::map_each`] without following streams: `each` gets every access's `id << 3 |
     /// stream << 1 | is_write` with the stream state only where the records carry it
     /// (`first_touch`; else 0), and the line's address, which a [`StreamFollower`] of the task
-    /// ([`StreamFollower::follow_unless`]) turns into the state. The replay's pipeline follows the
-    /// streams on its other thread: stream following was a third of the mapping thread's time,
-    /// the pipeline's slow stage, while the cache simulation's thread waited most of its own.
+    /// ([`StreamFollower::follow_unless`]) turns into the state. The replay's pipeline follows a
+    /// task's streams on whichever of its two threads is less busy ([`simulate_pipelined`]):
+    /// following them had been most of the mapping thread's time, the pipeline's slow stage, while
+    /// the cache simulation's thread waited most of its own.
     pub fn map_unfollowed(
         &mut self,
         task: &TaskRecord,
