@@ -1213,7 +1213,7 @@ impl LineMapper {
     /// stream << 1 | is_write` with the stream state only where the records carry it
     /// (`first_touch`; else 0), and the line's address, which a [`StreamFollower`] of the task
     /// ([`StreamFollower::follow_unless`]) turns into the state. The replay's pipeline follows a
-    /// task's streams on whichever of its two threads is less busy ([`simulate_pipelined`]):
+    /// task's streams on whichever of its two threads is less busy (`simulate_pipelined`):
     /// following them had been most of the mapping thread's time, the pipeline's slow stage, while
     /// the cache simulation's thread waited most of its own.
     pub fn map_unfollowed(
