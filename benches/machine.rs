@@ -50,7 +50,8 @@ fn timed_first<T>(mut f: impl FnMut() -> T) -> (f64, f64, T) {
         out = Some(f());
         times.push(t.elapsed().as_secs_f64());
     }
-    (median(times.clone()), times[0], out.expect("3 runs"))
+    let first = times[0];
+    (median(times), first, out.expect("3 runs"))
 }
 
 fn main() {

@@ -998,8 +998,8 @@ fn simulate_pipelined(
         // itself while chunks wait for this thread, and leaves them to this thread while it
         // waits for chunks.
         let (full_tx, full_rx) =
-            crossbeam::channel::bounded::<(Unfollowed, Option<TaskPages>)>(PIPELINE_DEPTH);
-        let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<Unfollowed>();
+            crossbeam::channel::bounded::<(MappedChunk, Option<TaskPages>)>(PIPELINE_DEPTH);
+        let (empty_tx, empty_rx) = crossbeam::channel::unbounded::<MappedChunk>();
         scope.spawn(move || {
             for (task, first_touch) in phases.iter().flat_map(|p| p.tasks()) {
                 let follow_here = !first_touch && full_tx.len() >= follow_here_queued;
@@ -1009,13 +1009,9 @@ fn simulate_pipelined(
                 buf.clear(followed);
                 let mut alive = true;
                 let pages = ids.map_unfollowed(task, first_touch, |id, line| {
-                    if follow_here {
-                        buf.ids.push(id | streams.follow(line) << 1);
-                    } else {
-                        buf.ids.push(id);
-                        if !followed {
-                            buf.lines.push(line);
-                        }
+                    buf.ids.push(id | streams.follow_unless(!follow_here, line) << 1);
+                    if !followed {
+                        buf.lines.push(line);
                     }
                     if buf.ids.len() == CHUNK_LINES && alive {
                         let mut next = empty_rx.try_recv().unwrap_or_default();
@@ -1064,7 +1060,7 @@ const FOLLOW_HERE_QUEUED: usize = 2;
 /// ([`LineMapper::map_unfollowed`]): ids with their stream states, or without them and with the
 /// line addresses a [`StreamFollower`] needs.
 #[derive(Default)]
-struct Unfollowed {
+struct MappedChunk {
     /// `id << 3 | stream << 1 | is_write`, the stream state 0 unless `followed`.
     ids: Vec<u32>,
     /// The accesses' line addresses, for the stream follower (empty when `followed`).
@@ -1073,7 +1069,7 @@ struct Unfollowed {
     followed: bool,
 }
 
-impl Unfollowed {
+impl MappedChunk {
     /// Empties the chunk for a task whose ids will (`followed`) or will not carry their states.
     fn clear(&mut self, followed: bool) {
         self.ids.clear();
@@ -1310,11 +1306,11 @@ impl Default for StreamFollower {
 }
 
 impl StreamFollower {
-    /// [`StreamFollower::follow`] of `line`, or 0 without following when `first_touch` (the
-    /// records carry the state: [`LineMapper::map_unfollowed`]).
+    /// [`StreamFollower::follow`] of `line`, or 0 without following when `skip` (the records carry
+    /// the state, [`LineMapper::map_unfollowed`], or another thread follows it).
     #[inline(always)]
-    pub fn follow_unless(&mut self, first_touch: bool, line: u64) -> u32 {
-        if first_touch {
+    pub fn follow_unless(&mut self, skip: bool, line: u64) -> u32 {
+        if skip {
             0
         } else {
             self.follow(line)
